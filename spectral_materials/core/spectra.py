@@ -1,0 +1,150 @@
+"""Spectral data: wavelength grid, CIE 1931 2° CMFs, illuminants, reflectances.
+
+Everything comes from colour-science and is resampled onto the caller's
+wavelength grid by piecewise-linear interpolation (exact at the datasets' own
+5 nm / 1 nm samples, no ringing on the spiky FL lines), constant beyond the
+dataset's range.
+
+References
+----------
+CIE 015:2018 Colorimetry, 4th ed. Tables of the 1931 2° observer and the
+standard illuminants, as shipped by colour-science 0.4.6.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import lru_cache
+from typing import Union
+
+import colour
+import numpy as np
+
+#: The protocol's reference grid: 5 nm from 380 to 780 nm (81 samples).
+WAVELENGTHS_REFERENCE = np.arange(380.0, 781.0, 5.0)
+
+#: Sample spacing of :data:`WAVELENGTHS_REFERENCE` in nm.
+DELTA_LAMBDA_REFERENCE = 5.0
+
+ILLUMINANT_NAMES = ("A", "D50", "D65") + tuple(f"FL{i}" for i in range(1, 13))
+
+OBSERVER = "CIE 1931 2 Degree Standard Observer"
+
+COLORCHECKER = "ColorChecker N Ohta"
+
+#: A spectrum given by the user: a constant, a colour-science distribution, a
+#: callable ``wavelengths -> values``, or a ``(wavelengths, values)`` pair.
+SpectrumLike = Union[
+    float,
+    "colour.SpectralDistribution",
+    Callable[[np.ndarray], np.ndarray],
+    tuple,
+]
+
+
+def wavelength_grid(start: float = 380.0, stop: float = 780.0, step: float = 5.0) -> np.ndarray:
+    """Return an inclusive, uniform wavelength grid in nm."""
+    if not (np.isfinite([start, stop, step]).all() and step > 0 and stop >= start):
+        raise ValueError(f"invalid wavelength grid: start={start}, stop={stop}, step={step}")
+    count = int(round((stop - start) / step)) + 1
+    return start + step * np.arange(count, dtype=np.float64)
+
+
+def check_wavelengths(wavelengths: np.ndarray) -> np.ndarray:
+    """Validate a wavelength array (1-D, finite, strictly increasing, nm)."""
+    wl = np.asarray(wavelengths, dtype=np.float64)
+    if wl.ndim != 1 or wl.size == 0:
+        raise ValueError(f"wavelengths must be a non-empty 1-D array, got shape {wl.shape}")
+    if not np.isfinite(wl).all():
+        raise ValueError("wavelengths contain NaN or inf")
+    if wl.size > 1 and np.any(np.diff(wl) <= 0):
+        raise ValueError("wavelengths must be strictly increasing")
+    if wl[0] < 200 or wl[-1] > 2000:
+        raise ValueError(f"wavelengths {wl[0]}..{wl[-1]} nm are outside 200..2000 nm")
+    return wl
+
+
+def sample_weights(wavelengths: np.ndarray) -> np.ndarray:
+    """Riemann-sum weights Δλ per sample (trapezoid-free, as the protocol sums)."""
+    wl = check_wavelengths(wavelengths)
+    if wl.size == 1:
+        return np.ones(1)
+    edges = np.concatenate([[wl[0] - (wl[1] - wl[0]) / 2], (wl[1:] + wl[:-1]) / 2,
+                            [wl[-1] + (wl[-1] - wl[-2]) / 2]])
+    return np.diff(edges)
+
+
+def _resample(domain: np.ndarray, values: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 1:
+        return np.interp(wavelengths, domain, values)
+    return np.stack([np.interp(wavelengths, domain, v) for v in values.T], axis=-1)
+
+
+def spectrum_values(spectrum: SpectrumLike, wavelengths: np.ndarray) -> np.ndarray:
+    """Evaluate a :data:`SpectrumLike` at ``wavelengths`` (nm) → array (L,)."""
+    wl = check_wavelengths(wavelengths)
+    if isinstance(spectrum, (int, float, np.floating, np.integer)):
+        out = np.full(wl.shape, float(spectrum))
+    elif isinstance(spectrum, colour.SpectralDistribution):
+        out = _resample(spectrum.wavelengths, spectrum.values, wl)
+    elif isinstance(spectrum, tuple) and len(spectrum) == 2:
+        domain, values = (np.asarray(a, dtype=np.float64) for a in spectrum)
+        if domain.shape != values.shape or domain.ndim != 1:
+            raise ValueError("a (wavelengths, values) spectrum needs two 1-D arrays of equal length")
+        out = _resample(domain, values, wl)
+    elif callable(spectrum):
+        out = np.asarray(spectrum(wl), dtype=np.float64)
+        if out.shape != wl.shape:
+            out = np.broadcast_to(out, wl.shape).copy()
+    else:
+        raise TypeError(f"cannot interpret {type(spectrum).__name__} as a spectrum")
+    if not np.isfinite(out).all():
+        raise ValueError(f"spectrum has {int((~np.isfinite(out)).sum())} non-finite values")
+    return out
+
+
+@lru_cache(maxsize=32)
+def _cmfs_cached(key: tuple) -> np.ndarray:
+    cmfs = colour.MSDS_CMFS[OBSERVER]
+    out = _resample(cmfs.wavelengths, cmfs.values, np.asarray(key))
+    out.setflags(write=False)
+    return out
+
+
+def cmfs(wavelengths: np.ndarray = WAVELENGTHS_REFERENCE) -> np.ndarray:
+    """CIE 1931 2° colour matching functions x̄, ȳ, z̄ at ``wavelengths`` → (L, 3)."""
+    return _cmfs_cached(tuple(check_wavelengths(wavelengths).tolist()))
+
+
+def illuminant(name: str, wavelengths: np.ndarray = WAVELENGTHS_REFERENCE) -> np.ndarray:
+    """Relative SPD of a CIE illuminant (``A``, ``D50``, ``D65``, ``FL1``–``FL12``) → (L,)."""
+    key = str(name).upper()
+    if key not in ILLUMINANT_NAMES:
+        raise ValueError(f"unknown illuminant {name!r}; choose one of {', '.join(ILLUMINANT_NAMES)}")
+    return spectrum_values(colour.SDS_ILLUMINANTS[key], wavelengths)
+
+
+def colorchecker_names() -> list[str]:
+    """Names of the 24 ColorChecker N Ohta patches, in chart order (patch 1 first)."""
+    return list(colour.SDS_COLOURCHECKERS[COLORCHECKER].keys())
+
+
+def colorchecker(patch: int | str, wavelengths: np.ndarray = WAVELENGTHS_REFERENCE) -> np.ndarray:
+    """Reflectance of a ColorChecker N Ohta patch, by 1-based number or by name → (L,)."""
+    patches = colour.SDS_COLOURCHECKERS[COLORCHECKER]
+    names = list(patches.keys())
+    if isinstance(patch, (int, np.integer)):
+        if not 1 <= patch <= len(names):
+            raise ValueError(f"ColorChecker patch must be 1..{len(names)}, got {patch}")
+        name = names[int(patch) - 1]
+    else:
+        if patch not in patches:
+            raise ValueError(f"unknown ColorChecker patch {patch!r}")
+        name = patch
+    return spectrum_values(patches[name], wavelengths)
+
+
+def colorchecker_spectrum(patch: int | str) -> tuple[np.ndarray, np.ndarray]:
+    """A patch as a ``(wavelengths, values)`` :data:`SpectrumLike` on its native 5 nm grid."""
+    return WAVELENGTHS_REFERENCE.copy(), colorchecker(patch, WAVELENGTHS_REFERENCE)
