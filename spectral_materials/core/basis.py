@@ -131,8 +131,9 @@ def linear_model_basis(
     u, s, _ = np.linalg.svd(matrix.T, full_matrices=False)
     rank_limit = int(np.sum(s > s[0] * 1e-12))
     if count is not None:
-        if not 1 <= count <= wl.size:
-            raise ValueError(f"basis count must be 1..{wl.size}, got {count}")
+        # At most min(L, number of nonzero input spectra) singular vectors exist.
+        if not 1 <= count <= u.shape[1]:
+            raise ValueError(f"basis count must be 1..{u.shape[1]}, got {count}")
         m = int(count)
     else:
         tol = 1e-3 if tolerance is None else float(tolerance)

@@ -16,7 +16,8 @@ Steps (each reported through ``callback(fraction, message) -> stop?``):
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -262,7 +263,7 @@ def _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, 
     work, compression = tensor, None
     if compress_tolerance is not None:
         compression = cp.tucker_compress(tensor, compress_tolerance,
-                                         callback=cp_progress(callback, 0.0, 0.2))
+                                         callback=scaled(callback, 0.0, 0.2))
         work = compression.core
     results: list[FactoredBRDF] = []
     per_pack: list[dict] = []
@@ -304,7 +305,7 @@ def _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, 
 
     factors, history = cp.fit_packs(work, max_packs, pack_size=base["pack_size"], method=method,
                                     settings=settings, seed=seed, on_pack=on_pack,
-                                    callback=cp_progress(callback, 0.2, 1.0))
+                                    callback=scaled(callback, 0.2, 1.0))
     if not history.error_sq:  # zero BRDF: one pack of zeros
         factors = [np.zeros((n, base["pack_size"])) for n in work.shape]
         error_sq = 0.0
@@ -319,13 +320,12 @@ def _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, 
         else "error floor" if len(history.error_sq) < max_packs else "pack limit")
     for model in results:
         model.report["per_pack"] = per_pack[: model.report["packs"]]
-    if not counts:
-        return [final]
-    return results if results else [final]
-
-
-def cp_progress(callback, start, stop):
-    return scaled(callback, start, stop)
+    # Counts beyond where the fit stopped get the final model: more packs would
+    # not lower the error (see report["stopped"]).
+    for count in counts[len(results):]:
+        extra = replace(final, report=dict(final.report, requested_packs=count))
+        results.append(extra)
+    return results if counts else [final]
 
 
 def _separable_series(table, counts, method, nd_norm, base, common_report, start, tabulated,
@@ -361,4 +361,3 @@ def _smooth(factor: np.ndarray, axis, width: int) -> np.ndarray:
 
 
 __all__ = ["factor_brdf", "factor_brdf_series", "prepare_table", "is_isotropic", "METHODS"]
-_unused: Callable | None = None

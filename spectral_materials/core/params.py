@@ -39,7 +39,8 @@ is taken to be ``n``. Directions below the horizon are not clipped: they give
 ``inverse`` returns finite directions for every input (non-finite coordinates
 are replaced by 0 and marked invalid) and a ``valid`` mask: every non-periodic
 coordinate inside its axis range, both directions at or above the horizon
-(``z >= -1e-12``, a tolerance for rounding), and, for ``gs``, both
+(``z >= -1e-12``, a tolerance for rounding; ``-1e-7`` for ``gs``, whose
+square roots lose half the digits near the horizon), and, for ``gs``, both
 ``(hx, hy)`` and ``(du, dv)`` inside the unit disc. For valid coordinates,
 ``forward(*inverse(c)[:2])`` reproduces ``c`` (periodic axes modulo the
 period; azimuths at a pole are arbitrary).
@@ -88,6 +89,9 @@ HALF_PI = 0.5 * math.pi
 HALF_VECTOR_EPS = 1e-12
 #: Tolerance of the validity tests of ``inverse`` (horizon, axis ranges, unit discs).
 VALID_EPS = 1e-12
+#: Horizon tolerance of ``gs``: hz and dz are square roots of 1 − (sum of squares),
+#: so directions near the horizon carry errors of order √ε ≈ 1.5e-8.
+GS_HORIZON_EPS = 1e-7
 
 _WARPS = ("linear", "sqrt")
 
@@ -266,6 +270,7 @@ def axis_lookup(
 
 # --------------------------------------------------------------------------- base class
 
+
 def _theta_axis(name: str, warp: str = "linear") -> Axis:
     return Axis(name, 0.0, HALF_PI, periodic=False, warp=warp)
 
@@ -287,6 +292,8 @@ class Parameterization:
     default_resolution: tuple[int, ...] = ()
     split: tuple[tuple[int, ...], tuple[int, ...]] = ((), ())
     isotropic: bool = False
+    #: ``inverse`` accepts directions with z >= -horizon_tolerance as above the horizon.
+    horizon_tolerance: float = VALID_EPS
 
     @property
     def ndim(self) -> int:
@@ -321,12 +328,14 @@ class Parameterization:
 
         ``valid``: the coordinates are finite, non-periodic ones lie in their
         axis range, and both directions are at or above the horizon (all up to
-        :data:`VALID_EPS`). Directions are finite everywhere, valid or not.
+        :data:`VALID_EPS`; the horizon test uses ``horizon_tolerance``). Directions
+        are finite everywhere, valid or not.
         """
         c = np.asarray(coords, dtype=np.float64)
         if c.shape[-1:] != (self.ndim,):
-            raise ValueError(f"{self.name}: coordinates must have shape (..., {self.ndim}), "
-                             f"got {c.shape}")
+            raise ValueError(
+                f"{self.name}: coordinates must have shape (..., {self.ndim}), got {c.shape}"
+            )
         lead = c.shape[:-1]
         c = c.reshape(-1, self.ndim)
         finite = np.isfinite(c).all(axis=1)
@@ -336,7 +345,8 @@ class Parameterization:
             if not ax.periodic:
                 valid &= (c[:, k] >= ax.lo - VALID_EPS) & (c[:, k] <= ax.hi + VALID_EPS)
         wi, wo, extra = self._inverse(c)
-        valid &= extra & (wi[:, 2] >= -VALID_EPS) & (wo[:, 2] >= -VALID_EPS)
+        tol = self.horizon_tolerance
+        valid &= extra & (wi[:, 2] >= -tol) & (wo[:, 2] >= -tol)
         return wi.reshape(lead + (3,)), wo.reshape(lead + (3,)), valid.reshape(lead)
 
     def grid(self, resolution: tuple[int, ...] | None = None) -> np.ndarray:
@@ -345,7 +355,7 @@ class Parameterization:
         res = self.default_resolution if resolution is None else tuple(int(r) for r in resolution)
         if len(res) != self.ndim:
             raise ValueError(f"{self.name}: resolution needs {self.ndim} entries, got {res}")
-        centres = [ax.centres(r) for ax, r in zip(self.axes, res)]
+        centres = [ax.centres(r) for ax, r in zip(self.axes, res, strict=True)]
         mesh = np.meshgrid(*centres, indexing="ij")
         return np.stack([m.ravel() for m in mesh], axis=-1)
 
@@ -533,6 +543,7 @@ class GSParameterization(Parameterization):
     )
     default_resolution = (32, 32, 32, 32)
     split = ((0, 1), (2, 3))
+    horizon_tolerance = GS_HORIZON_EPS
 
     def _forward(self, wi, wo):
         h = _half_vector(wi, wo)

@@ -90,8 +90,9 @@ def spectrum_values(spectrum: SpectrumLike, wavelengths: np.ndarray) -> np.ndarr
         out = _resample(spectrum.wavelengths, spectrum.values, wl)
     elif isinstance(spectrum, tuple) and len(spectrum) == 2:
         domain, values = (np.asarray(a, dtype=np.float64) for a in spectrum)
-        if domain.shape != values.shape or domain.ndim != 1:
-            raise ValueError("a (wavelengths, values) spectrum needs two 1-D arrays of equal length")
+        if domain.shape != values.shape or domain.ndim != 1 or not np.all(np.diff(domain) > 0):
+            raise ValueError("a (wavelengths, values) spectrum needs two 1-D arrays of equal "
+                             "length, wavelengths strictly increasing")
         out = _resample(domain, values, wl)
     elif callable(spectrum):
         out = np.asarray(spectrum(wl), dtype=np.float64)
