@@ -17,6 +17,7 @@ is a JSON document; see README §"Factor file format" for every array.
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -130,19 +131,23 @@ class FactoredBRDF:
         return coefficients if self.basis is None else coefficients @ self.basis.T
 
     def evaluate_cosine_weighted(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """``f·cosθi`` (N, L) at ``.wavelengths``; 0 below the horizon."""
+        """``f·cosθi`` (N, L) at ``.wavelengths``; 0 below the horizon, clamped at 0.
+
+        A sum of rank-one terms can dip slightly below zero where the BRDF is ~0;
+        a reflectance cannot, so spectra are clamped (``xyz`` is left linear).
+        """
         values = self._to_wavelengths(self.coefficients(wi, wo))
         if not self.cosine_weighted:
             values = values * np.clip(np.asarray(wi)[:, 2:3], 0.0, None)
-        return values
+        return np.maximum(values, 0.0)
 
     def evaluate(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """The BRDF ``f`` (N, L) at ``.wavelengths`` (nm), without the cosine.
+        """The BRDF ``f`` (N, L) at ``.wavelengths`` (nm), without the cosine, clamped at 0.
 
         A cosine-weighted model divides by ``max(cosθi, 1e-4)``: within 0.006° of
         the horizon the value is that of the last representable angle.
         """
-        values = self._to_wavelengths(self.coefficients(wi, wo))
+        values = np.maximum(self._to_wavelengths(self.coefficients(wi, wo)), 0.0)
         if self.cosine_weighted:
             values = values / np.maximum(np.asarray(wi)[:, 2:3], 1e-4)
         return values
@@ -232,7 +237,7 @@ class FactoredBRDF:
         try:
             with np.load(path, allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
-        except (OSError, ValueError, EOFError) as exc:
+        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as exc:
             raise ValueError(f"{path}: not a readable .npz file ({exc})") from exc
         if "meta" not in arrays:
             raise ValueError(f"{path}: no 'meta' entry; not a FactoredBRDF file")
