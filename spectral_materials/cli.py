@@ -552,6 +552,9 @@ def cmd_factor(args, progress: Progress) -> int:
                      f"({stopped}); more packs would not lower the error")
     if missing:
         notes.append(f"no models for pack counts {', '.join(map(str, missing))}")
+    if args.target_de94 is not None:
+        notes.append(f"--target-de94 {args.target_de94:g}: stopped at {final.packs} "
+                     f"pack{'s' * (final.packs != 1)} ({stopped})")
     notes.append("table: the tabulated grid looked up without factorising (the error floor); "
                  "its seconds are the tabulation's, its rel_rms the spectral basis loss")
     for note in notes:

@@ -57,7 +57,8 @@ class LinearModelBasis:
             raise ValueError(
                 f"spectra have {values.shape[-1]} samples, the basis has {self.wavelengths.size}"
             )
-        return values @ self.vectors.astype(values.dtype if values.dtype == np.float32 else np.float64)
+        dtype = np.float32 if values.dtype == np.float32 else np.float64
+        return values @ self.vectors.astype(dtype)
 
     def reconstruct(self, coefficients: np.ndarray) -> np.ndarray:
         """Spectra ``(..., L)`` from coefficients ``(..., m)``."""

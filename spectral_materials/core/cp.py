@@ -259,9 +259,88 @@ class PackHistory:
     ridge: list[float] = field(default_factory=list)
 
 
-def _als_update(tensor, fixed, free, mode, ridge, settings):
+def _last_mode_partial(tensor: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """``P[r, …] = Σ_λ T[…, λ] E[λ, r]`` as (R, n_0, …, n_{d-2}), one BLAS pass over T."""
+    flat = tensor.reshape(-1, tensor.shape[-1])
+    out = np.dot(last.T.astype(tensor.dtype), flat.T)
+    return out.reshape((last.shape[1],) + tensor.shape[:-1])
+
+
+def _kron_columns(columns: Sequence[np.ndarray]) -> np.ndarray:
+    out = np.ones(1, dtype=columns[0].dtype if columns else np.float64)
+    for c in columns:
+        out = np.multiply.outer(out, c).reshape(-1)
+    return out
+
+
+def _mttkrp_from_partial(partial: np.ndarray, factors: Sequence[np.ndarray],
+                         mode: int) -> np.ndarray:
+    """MTTKRP for an angular ``mode`` from :func:`_last_mode_partial` (one GEMV pass per term)."""
+    shape = partial.shape[1:]
+    left_size = int(np.prod(shape[:mode]))
+    right_size = int(np.prod(shape[mode + 1:]))
+    out = np.empty((shape[mode], partial.shape[0]))
+    dtype = partial.dtype
+    for r in range(partial.shape[0]):
+        block = partial[r].reshape(left_size, shape[mode] * right_size)
+        if left_size > 1:
+            left = _kron_columns([f[:, r].astype(dtype) for f in factors[:mode]])
+            block = (left @ block)
+        block = block.reshape(shape[mode], right_size)
+        right = _kron_columns([f[:, r].astype(dtype) for f in factors[mode + 1: len(shape)]])
+        out[:, r] = block @ right
+    return out
+
+
+def _mttkrp_last(tensor: np.ndarray, factors: Sequence[np.ndarray], chunk_bytes: int
+                 ) -> np.ndarray:
+    """MTTKRP for the last mode: per row of axis 0, ``T[a]ᵀ · KR(A_1 … A_{d-2})`` batched.
+
+    The Khatri–Rao rows of the middle modes are formed once and stay in cache;
+    each slab of T is read once by a batched GEMM, then weighted by ``A_0``.
+    """
+    rank = factors[0].shape[1]
+    work = [np.ascontiguousarray(f, dtype=tensor.dtype) for f in factors[:-1]]
+    kr_rest = np.ones((1, rank), dtype=tensor.dtype)
+    for f in work[1:]:
+        kr_rest = (kr_rest[:, None, :] * f[None, :, :]).reshape(-1, rank)
+    depth = tensor.shape[-1]
+    slabs = tensor.reshape(tensor.shape[0], -1, depth)
+    out = np.zeros((depth, rank))
+    for sl in _chunk_slices(tensor.shape[0], tensor[0].nbytes, chunk_bytes):
+        z = np.matmul(slabs[sl].transpose(0, 2, 1), kr_rest)  # (rows, depth, rank)
+        out += np.einsum("alr,ar->lr", z.astype(np.float64), work[0][sl].astype(np.float64))
+    return out
+
+
+def sweep_mttkrps(tensor: np.ndarray, factors: Factors, update, chunk_bytes: int = CHUNK_BYTES
+                  ) -> None:
+    """One ALS sweep over modes 0…d−1, calling ``update(mode, mttkrp)`` for each.
+
+    Where it fits in memory, ``P = T ×_{d-1} A_{d-1}`` is formed once (one pass
+    over T) and serves every other mode, since the last factor only changes at
+    the sweep's end; the last mode takes one more pass. Otherwise each mode
+    walks T once through :func:`mttkrp`.
+    """
+    d = tensor.ndim
+    rank = factors[0].shape[1]
+    partial_bytes = tensor.nbytes // tensor.shape[-1] * rank
+    kr_bytes = tensor.nbytes // (tensor.shape[0] * tensor.shape[-1]) * rank
+    if d >= 3 and partial_bytes <= max(tensor.nbytes, chunk_bytes) and kr_bytes <= chunk_bytes:
+        partial = _last_mode_partial(tensor, factors[-1])
+        for mode in range(d - 1):
+            update(mode, _mttkrp_from_partial(partial, factors, mode))
+        del partial
+        update(d - 1, _mttkrp_last(tensor, factors, chunk_bytes))
+        return
+    for mode in range(d):
+        update(mode, mttkrp(tensor, factors, mode, chunk_bytes))
+
+
+def _als_update(tensor, fixed, free, mode, ridge, settings, m=None):
     """Least-squares update of ``free[mode]`` against ``T − X_fixed``."""
-    m = mttkrp(tensor, free, mode, settings.chunk_bytes)
+    if m is None:
+        m = mttkrp(tensor, free, mode, settings.chunk_bytes)
     if fixed is not None and fixed[0].shape[1] > 0:
         cross = np.ones((fixed[0].shape[1], free[0].shape[1]))
         for k, (ff, fr) in enumerate(zip(fixed, free)):
@@ -282,12 +361,12 @@ def _als_update(tensor, fixed, free, mode, ridge, settings):
 
 def als(tensor: np.ndarray, init: Factors, *, fixed: Factors | None = None,
         norm_sq: float | None = None, settings: ALSSettings | None = None,
-        sweeps: int | None = None, first_mode: int = 0) -> tuple[Factors, int, float]:
+        sweeps: int | None = None) -> tuple[Factors, int, float]:
     """Run ALS sweeps on the terms ``init`` against ``T − X_fixed``.
 
     Returns the factors, the number of sweeps run and the final ridge. Sweeps
-    start at ``first_mode`` (a new pack starts with its zero mode, so that the
-    first update can only lower the error).
+    run over modes 0…d−1 (a new pack starts with a zero mode 0, so its first
+    update can only lower the error).
     """
     settings = settings or ALSSettings()
     norm_sq = tensor_norm_sq(tensor) if norm_sq is None else norm_sq
@@ -295,16 +374,17 @@ def als(tensor: np.ndarray, init: Factors, *, fixed: Factors | None = None,
     if norm == 0:
         return [np.zeros_like(f) for f in init], 0, settings.ridge
     bound = settings.weight_bound * norm
-    d = tensor.ndim
     factors = [f.astype(np.float64).copy() for f in init]
     ridge = settings.ridge
     max_sweeps = settings.max_sweeps if sweeps is None else sweeps
-    order = [(first_mode + k) % d for k in range(d)]
     done = 0
     while done < max_sweeps:
         trial = [f.copy() for f in factors]
-        for mode in order:
-            trial[mode] = _als_update(tensor, fixed, trial, mode, ridge, settings)
+
+        def update(mode, m, trial=trial, ridge=ridge):
+            trial[mode] = _als_update(tensor, fixed, trial, mode, ridge, settings, m)
+
+        sweep_mttkrps(tensor, trial, update, settings.chunk_bytes)
         trial = balance(trial)
         if not all(np.isfinite(f).all() for f in trial) or term_weights(trial).max() > bound:
             if ridge >= 1e2:
@@ -315,7 +395,6 @@ def als(tensor: np.ndarray, init: Factors, *, fixed: Factors | None = None,
                      - 2.0 * kruskal_inner(trial, factors))
         factors = trial
         done += 1
-        order = list(range(d))
         if np.sqrt(max(change_sq, 0.0)) <= settings.tolerance * norm:
             break
     return factors, done, ridge
@@ -394,7 +473,7 @@ def fit_packs(
         init = [f / np.linalg.norm(f, axis=0) for f in init]
         init[0][:] = 0.0
         new, sweeps, ridge = als(tensor, init, fixed=factors, norm_sq=norm_sq,
-                                 settings=settings, first_mode=0)
+                                 settings=settings)
         candidate = [np.concatenate([f, g], axis=1) for f, g in zip(factors, new)]
         candidate_err = residual_norm_sq(tensor, candidate, norm_sq, settings.chunk_bytes)
         if method == "joint" and settings.refine_sweeps > 0:

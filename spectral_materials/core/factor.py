@@ -70,7 +70,7 @@ def build_basis(brdf, wavelengths: np.ndarray, isotropic: bool,
         return spectral_basis
     reflectances = sample_brdf_spectra(brdf, wavelengths, isotropic)
     lights = light_cmf_spectra(illuminants, wavelengths)
-    if isinstance(spectral_basis, (int, np.integer)) and not isinstance(spectral_basis, bool):
+    if isinstance(spectral_basis, int | np.integer) and not isinstance(spectral_basis, bool):
         return linear_model_basis(wavelengths, reflectances, lights, count=int(spectral_basis))
     if isinstance(spectral_basis, float):
         return linear_model_basis(wavelengths, reflectances, lights, tolerance=spectral_basis)
@@ -157,16 +157,6 @@ def factor_brdf(
     FactoredBRDF
         With ``.report`` holding error and time figures.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if packs is not None and not 1 <= int(packs) <= MAX_PACKS:
-        raise ValueError(f"packs must be 1..{MAX_PACKS}, got {packs}")
-    if target_de94 is not None and not (np.isfinite(target_de94) and target_de94 > 0):
-        raise ValueError(f"target_de94 must be a positive number, got {target_de94}")
-    if not 1 <= int(pack_size) <= 64:
-        raise ValueError(f"pack_size must be 1..64, got {pack_size}")
-    if smoothing < 0 or smoothing > 64:
-        raise ValueError(f"smoothing must be 0..64 samples, got {smoothing}")
     series = factor_brdf_series(
         brdf, pack_counts=None, parameterization=parameterization, isotropic=isotropic,
         resolution=resolution, wavelengths=wavelengths, packs=packs, target_de94=target_de94,
@@ -195,7 +185,7 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
     report(callback, 0.0, "spectral basis" if spectral_basis is not None else "tabulating")
     basis = None if spectral_basis is None else build_basis(brdf, wl, isotropic, spectral_basis)
     return tabulate(brdf, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
-                    callback=scaled(callback, 0.0, 0.3))
+                    callback=callback)
 
 
 def factor_brdf_series(
@@ -222,6 +212,7 @@ def factor_brdf_series(
     ``table`` reuses an existing tabulation. Without ``pack_counts`` the list
     holds just the final model.
     """
+    _check_options(method, packs, pack_counts, target_de94, pack_size, smoothing)
     start = time.perf_counter()
     if table is None:
         table = prepare_table(brdf, callback=scaled(callback, 0.0, 0.3), **table_options)
@@ -249,6 +240,20 @@ def factor_brdf_series(
                                  common_report, start, tabulated, sub, seed)
     return _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, settings,
                       target, target_de94, base, common_report, tabulated, sub, seed)
+
+
+def _check_options(method, packs, pack_counts, target_de94, pack_size, smoothing) -> None:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    for count in ([packs] if packs is not None else []) + list(pack_counts or []):
+        if not 1 <= int(count) <= MAX_PACKS:
+            raise ValueError(f"packs must be 1..{MAX_PACKS}, got {count}")
+    if target_de94 is not None and not (np.isfinite(target_de94) and target_de94 > 0):
+        raise ValueError(f"target_de94 must be a positive number, got {target_de94}")
+    if not 1 <= int(pack_size) <= 64:
+        raise ValueError(f"pack_size must be 1..64, got {pack_size}")
+    if not 0 <= smoothing <= 64:
+        raise ValueError(f"smoothing must be 0..64 samples, got {smoothing}")
 
 
 def _relative(table: Table, error_sq: float) -> float:

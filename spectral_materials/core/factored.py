@@ -152,7 +152,8 @@ class FactoredBRDF:
             values = values / np.maximum(np.asarray(wi)[:, 2:3], 1e-4)
         return values
 
-    def xyz(self, wi: np.ndarray, wo: np.ndarray, illuminant: str | np.ndarray = "D65") -> np.ndarray:
+    def xyz(self, wi: np.ndarray, wo: np.ndarray,
+            illuminant: str | np.ndarray = "D65") -> np.ndarray:
         """Linear CIE XYZ (N, 3) reflected toward ``wo`` from a directional light at ``wi``.
 
         Normalised as shared/PROTOCOL.md says (white Lambertian at normal

@@ -84,7 +84,7 @@ def _resample(domain: np.ndarray, values: np.ndarray, wavelengths: np.ndarray) -
 def spectrum_values(spectrum: SpectrumLike, wavelengths: np.ndarray) -> np.ndarray:
     """Evaluate a :data:`SpectrumLike` at ``wavelengths`` (nm) → array (L,)."""
     wl = check_wavelengths(wavelengths)
-    if isinstance(spectrum, (int, float, np.floating, np.integer)):
+    if isinstance(spectrum, int | float | np.floating | np.integer):
         out = np.full(wl.shape, float(spectrum))
     elif isinstance(spectrum, colour.SpectralDistribution):
         out = _resample(spectrum.wavelengths, spectrum.values, wl)
@@ -122,7 +122,8 @@ def illuminant(name: str, wavelengths: np.ndarray = WAVELENGTHS_REFERENCE) -> np
     """Relative SPD of a CIE illuminant (``A``, ``D50``, ``D65``, ``FL1``–``FL12``) → (L,)."""
     key = str(name).upper()
     if key not in ILLUMINANT_NAMES:
-        raise ValueError(f"unknown illuminant {name!r}; choose one of {', '.join(ILLUMINANT_NAMES)}")
+        names = ", ".join(ILLUMINANT_NAMES)
+        raise ValueError(f"unknown illuminant {name!r}; choose one of {names}")
     return spectrum_values(colour.SDS_ILLUMINANTS[key], wavelengths)
 
 
@@ -135,7 +136,7 @@ def colorchecker(patch: int | str, wavelengths: np.ndarray = WAVELENGTHS_REFEREN
     """Reflectance of a ColorChecker N Ohta patch, by 1-based number or by name → (L,)."""
     patches = colour.SDS_COLOURCHECKERS[COLORCHECKER]
     names = list(patches.keys())
-    if isinstance(patch, (int, np.integer)):
+    if isinstance(patch, int | np.integer):
         if not 1 <= patch <= len(names):
             raise ValueError(f"ColorChecker patch must be 1..{len(names)}, got {patch}")
         name = names[int(patch) - 1]

@@ -181,7 +181,8 @@ def tabulate(
         if ok.any():
             f = np.asarray(brdf(wi[ok], wo[ok], wl), dtype=np.float64)
             if f.shape != (int(ok.sum()), wl.size):
-                raise ValueError(f"BRDF returned shape {f.shape}, expected {(int(ok.sum()), wl.size)}")
+                expected = (int(ok.sum()), wl.size)
+                raise ValueError(f"BRDF returned shape {f.shape}, expected {expected}")
             bad = ~np.isfinite(f) | (f < 0)
             if bad.any():
                 counts["nan"] += int(np.isnan(f).sum())

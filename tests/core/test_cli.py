@@ -40,7 +40,7 @@ def _check_rows(rows: list[dict], illuminants=("D65", "FL2")) -> None:
             stats = row["de94"][illum]
             assert set(stats) == {"mean", "p95", "max"}
             assert all(np.isfinite(v) and v >= 0 for v in stats.values())
-            assert stats["mean"] <= stats["p95"] <= stats["max"] + 1e-12
+            assert max(stats["mean"], stats["p95"]) <= stats["max"] + 1e-12
     for row in rows[:-1]:
         assert row["kind"] == "factored"
         assert 1 <= row["packs_fitted"] <= row["packs"]
@@ -112,8 +112,7 @@ def test_factor_tabulated_file(tmp_path):
     (["lambert", "--out", "/nonexistent_dir_xyz/f.npz"], "does not exist"),
 ])
 def test_errors_exit_2_with_one_line(capsys, args, message):
-    status = cli.main(["factor", *args, "--resolution", "4", "8", "4"][: None if "--resolution"
-                                                                       in args else None])
+    status = cli.main(["factor", *args, "--quiet"])  # all refused before any tabulation
     err = capsys.readouterr().err
     assert status == 2
     assert message in err, err

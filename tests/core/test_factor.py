@@ -3,8 +3,15 @@
 import numpy as np
 import pytest
 
-from spectral_materials.core import Cancelled, FactoredBRDF, InvalidBRDFData, factor_brdf, metrics
-from spectral_materials.core import models, spectra
+from spectral_materials.core import (
+    Cancelled,
+    FactoredBRDF,
+    InvalidBRDFData,
+    factor_brdf,
+    metrics,
+    models,
+    spectra,
+)
 from spectral_materials.core.factor import factor_brdf_series, is_isotropic
 
 SMALL_ISO = (24, 48, 24)

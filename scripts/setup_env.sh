@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Create .venv with the pinned dependencies (idempotent). Debian: installs python3.11 if missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+PY="${PYTHON:-}"
+if [ -z "$PY" ]; then
+  PY="$(command -v python3.11 || true)"
+fi
+if [ -z "$PY" ]; then
+  if command -v apt-get >/dev/null 2>&1; then
+    apt-get update -qq && apt-get install -y -qq python3.11 python3.11-venv >/dev/null
+    PY="$(command -v python3.11)"
+  else
+    echo "Python 3.11 is required (bpy 5.0.1 supports only 3.11)" >&2
+    exit 1
+  fi
+fi
+if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c 'import sys; assert sys.version_info[:2] == (3, 11)' 2>/dev/null; then
+  rm -rf .venv
+  if ! "$PY" -m venv .venv 2>/dev/null; then
+    apt-get update -qq && apt-get install -y -qq python3.11-venv >/dev/null
+    "$PY" -m venv .venv
+  fi
+fi
+stamp=.venv/.requirements.sha
+want="$(cat requirements/*.txt | sha256sum | cut -d' ' -f1)"
+if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  .venv/bin/python -m pip install -q --upgrade pip
+  .venv/bin/python -m pip install -q -r requirements/dev.txt
+  echo "$want" > "$stamp"
+fi
