@@ -58,7 +58,7 @@ Factors = list[np.ndarray]
 # --------------------------------------------------------------------------- basics
 
 
-def _chunk_slices(length: int, bytes_per_item: int, chunk_bytes: int = CHUNK_BYTES) -> list[slice]:
+def chunk_slices(length: int, bytes_per_item: int, chunk_bytes: int = CHUNK_BYTES) -> list[slice]:
     step = max(1, int(chunk_bytes // max(bytes_per_item, 1)))
     return [slice(i, min(i + step, length)) for i in range(0, length, step)]
 
@@ -67,7 +67,7 @@ def tensor_norm_sq(tensor: np.ndarray) -> float:
     """‖T‖² accumulated in float64, chunk by chunk."""
     flat = tensor.reshape(-1)
     total = 0.0
-    for sl in _chunk_slices(flat.size, 8):
+    for sl in chunk_slices(flat.size, 8):
         chunk = flat[sl].astype(np.float64)
         total += float(chunk @ chunk)
     return total
@@ -136,7 +136,7 @@ def mttkrp(tensor: np.ndarray, factors: Sequence[np.ndarray], mode: int,
     per_item = slab * max(1, rank // 2)
     out = np.zeros((tensor.shape[mode], rank))
     letters = string.ascii_letters
-    for sl in _chunk_slices(tensor.shape[chunk_axis], per_item, chunk_bytes):
+    for sl in chunk_slices(tensor.shape[chunk_axis], per_item, chunk_bytes):
         index = [slice(None)] * d
         index[chunk_axis] = sl
         sub = tensor[tuple(index)]
@@ -156,21 +156,17 @@ def mttkrp(tensor: np.ndarray, factors: Sequence[np.ndarray], mode: int,
 
 def mode_gram(tensor: np.ndarray, mode: int) -> np.ndarray:
     """T_(mode) T_(mode)ᵀ in float64, chunked (for HOSVD and initialisation)."""
-    d = tensor.ndim
     n = tensor.shape[mode]
     gram = np.zeros((n, n))
     if mode == 0:
         flat = tensor.reshape(n, -1)
-        for sl in _chunk_slices(flat.shape[1], n * 8):
+        for sl in chunk_slices(flat.shape[1], n * 8):
             block = flat[:, sl].astype(np.float64)
             gram += block @ block.T
         return gram
-    for sl in _chunk_slices(tensor.shape[0], 8 * tensor[0].size):
-        block = tensor[sl].astype(np.float64)
-        other = [k for k in range(d) if k != mode]
-        moved = np.moveaxis(block, mode, 0).reshape(n, -1)
+    for sl in chunk_slices(tensor.shape[0], 8 * tensor[0].size):
+        moved = np.moveaxis(tensor[sl].astype(np.float64), mode, 0).reshape(n, -1)
         gram += moved @ moved.T
-        del other
     return gram
 
 
@@ -227,7 +223,7 @@ def _multi_mode_product(tensor: np.ndarray, matrices: Sequence[np.ndarray]) -> n
     d = tensor.ndim
     shape = tuple(m.shape[0] for m in matrices)
     out = np.zeros(shape)
-    for sl in _chunk_slices(tensor.shape[0], 8 * tensor[0].size):
+    for sl in chunk_slices(tensor.shape[0], 8 * tensor[0].size):
         block = tensor[sl].astype(np.float64)
         for k in range(d - 1, 0, -1):
             block = np.moveaxis(np.tensordot(block, matrices[k], axes=([k], [1])), -1, k)
@@ -307,7 +303,7 @@ def _mttkrp_last(tensor: np.ndarray, factors: Sequence[np.ndarray], chunk_bytes:
     depth = tensor.shape[-1]
     slabs = tensor.reshape(tensor.shape[0], -1, depth)
     out = np.zeros((depth, rank))
-    for sl in _chunk_slices(tensor.shape[0], tensor[0].nbytes, chunk_bytes):
+    for sl in chunk_slices(tensor.shape[0], tensor[0].nbytes, chunk_bytes):
         z = np.matmul(slabs[sl].transpose(0, 2, 1), kr_rest)  # (rows, depth, rank)
         out += np.einsum("alr,ar->lr", z.astype(np.float64), work[0][sl].astype(np.float64))
     return out
@@ -413,7 +409,7 @@ def residual_norm_sq(tensor: np.ndarray, factors: Sequence[np.ndarray], norm_sq:
     inner = 0.0
     d = tensor.ndim
     rows = tensor.shape[0]
-    for sl in _chunk_slices(rows, 16 * tensor[0].size):
+    for sl in chunk_slices(rows, 16 * tensor[0].size):
         block = tensor[sl].astype(np.float64)
         part = [factors[0][sl].astype(np.float64)] + [f.astype(np.float64) for f in factors[1:]]
         m = mttkrp(block, part, d - 1, chunk_bytes=chunk_bytes)
@@ -459,7 +455,6 @@ def fit_packs(
     settings = settings or ALSSettings()
     rng = np.random.default_rng(seed)
     norm_sq = tensor_norm_sq(tensor)
-    d = tensor.ndim
     factors: Factors = [np.zeros((n, 0)) for n in tensor.shape]
     history = PackHistory()
     error_sq = norm_sq
@@ -490,5 +485,4 @@ def fit_packs(
         history.ridge.append(ridge)
         if on_pack is not None and on_pack(pack, factors, error_sq):
             break
-    del d
     return factors, history

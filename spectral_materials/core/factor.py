@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -32,6 +32,8 @@ METHODS = ("joint", "greedy", "svd", "nd")
 #: Lights whose light × CMF spectra enter an automatic basis (the protocol's).
 BASIS_ILLUMINANTS = ("D65", "A", "FL2", "FL11")
 DEFAULT_PACKS = 4
+#: Exponent of the perceptual mode weighting (see :func:`mode_weights`); 0 = plain L2.
+DEFAULT_WEIGHTING = 0.5
 MAX_PACKS = 256
 
 
@@ -106,6 +108,7 @@ def factor_brdf(
     method: str = "joint",
     cosine_weighted: bool = True,
     compress_tolerance: float | None = 3e-4,
+    weighting: float = DEFAULT_WEIGHTING,
     nd_norm: float = 2.0,
     smoothing: int = 0,
     settings: cp.ALSSettings | None = None,
@@ -145,6 +148,12 @@ def factor_brdf(
         residual-per-pack scheme.
     cosine_weighted : bool
         Factor ``f·cosθi`` (default, as the paper) rather than ``f``.
+    weighting : float
+        Perceptual weighting exponent γ (default 0.5): before fitting, each angular
+        axis is scaled by ``(rms(i)/max rms)^−γ`` (clipped to [1, 1000]), so dim
+        regions, where ΔE94 is most sensitive to an absolute error, weigh more.
+        The weights are diagonal per axis, so they fold back into the factors
+        exactly: storage and evaluation do not change. 0 = plain least squares.
     compress_tolerance : float or None
         Relative error of the HOSVD core the CP packs are fitted on; ``None``
         fits the full table (slower, same answer to within this tolerance).
@@ -162,7 +171,7 @@ def factor_brdf(
         resolution=resolution, wavelengths=wavelengths, packs=packs, target_de94=target_de94,
         pack_size=pack_size, spectral_basis=spectral_basis, callback=callback, seed=seed,
         method=method, cosine_weighted=cosine_weighted, compress_tolerance=compress_tolerance,
-        nd_norm=nd_norm, smoothing=smoothing, settings=settings,
+        weighting=weighting, nd_norm=nd_norm, smoothing=smoothing, settings=settings,
     )
     return series[-1]
 
@@ -200,6 +209,7 @@ def factor_brdf_series(
     seed: int = 0,
     method: str = "joint",
     compress_tolerance: float | None = 3e-4,
+    weighting: float = DEFAULT_WEIGHTING,
     nd_norm: float = 2.0,
     smoothing: int = 0,
     settings: cp.ALSSettings | None = None,
@@ -213,6 +223,8 @@ def factor_brdf_series(
     holds just the final model.
     """
     _check_options(method, packs, pack_counts, target_de94, pack_size, smoothing)
+    if not (np.isfinite(weighting) and 0 <= weighting <= 2):
+        raise ValueError(f"weighting must be in [0, 2], got {weighting}")
     start = time.perf_counter()
     if table is None:
         table = prepare_table(brdf, callback=scaled(callback, 0.0, 0.3), **table_options)
@@ -238,8 +250,9 @@ def factor_brdf_series(
     if method in ("svd", "nd"):
         return _separable_series(table, counts or [max_packs], method, nd_norm, base,
                                  common_report, start, tabulated, sub, seed)
-    return _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, settings,
-                      target, target_de94, base, common_report, tabulated, sub, seed)
+    options = _CPOptions(method, compress_tolerance, weighting, smoothing, settings, seed)
+    return _cp_series(table, counts, max_packs, options, target, target_de94, base,
+                      common_report, tabulated, sub)
 
 
 def _check_options(method, packs, pack_counts, target_de94, pack_size, smoothing) -> None:
@@ -262,42 +275,114 @@ def _relative(table: Table, error_sq: float) -> float:
     return float(np.sqrt((error_sq + table.basis_error_sq) / table.norm_sq))
 
 
-def _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, settings,
-               target, target_de94, base, common_report, tabulated, callback, seed):
+def mode_weights(tensor: np.ndarray, exponent: float, limit: float = 1e3) -> list[np.ndarray]:
+    """Perceptual per-index weights of each angular mode: ``(rms_k(i) / max rms_k)^(−exponent)``.
+
+    ``rms_k(i)`` is the RMS of the table over every other axis at index ``i`` of
+    axis ``k``. Weights are clipped to ``[1, limit]`` (slices of zeros get 1).
+    """
+    d = tensor.ndim - 1
+    sums = [np.zeros(n) for n in tensor.shape[:-1]]
+    for sl in cp.chunk_slices(tensor.shape[0], 8 * tensor[0].size):
+        sq = tensor[sl].astype(np.float64) ** 2
+        for k in range(d):
+            axes = tuple(j for j in range(tensor.ndim) if j != k)
+            if k == 0:
+                sums[0][sl] += sq.sum(axis=axes)
+            else:
+                sums[k] += sq.sum(axis=axes)
+    weights = []
+    for total in sums:
+        rms = np.sqrt(total)
+        peak = rms.max()
+        w = np.ones_like(rms)
+        if peak > 0 and exponent > 0:
+            positive = rms > 0
+            w[positive] = (rms[positive] / peak) ** (-exponent)
+        weights.append(np.clip(w, 1.0, limit))
+    return weights
+
+
+def scale_modes(tensor: np.ndarray, weights: Sequence[np.ndarray]) -> np.ndarray:
+    """A float32 copy of ``tensor`` with axis ``k`` multiplied by ``weights[k]``."""
+    out = np.empty_like(tensor)
+    inner = np.ones(tensor.shape[1:], dtype=np.float32)
+    for k, w in enumerate(weights[1:], start=1):
+        shape = [1] * (tensor.ndim - 1)
+        shape[k - 1] = -1
+        inner = inner * w.astype(np.float32).reshape(shape)
+    for sl in cp.chunk_slices(tensor.shape[0], 4 * tensor[0].size):
+        np.multiply(tensor[sl], inner, out=out[sl])
+        out[sl] *= weights[0][sl].astype(np.float32).reshape((-1,) + (1,) * (tensor.ndim - 1))
+    return out
+
+
+@dataclass
+class _CPOptions:
+    method: str
+    compress_tolerance: float | None
+    weighting: float
+    smoothing: int
+    settings: cp.ALSSettings | None
+    seed: int
+
+
+def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de94, base,
+               common_report, tabulated, callback):
     tensor = table.values
-    work, compression = tensor, None
-    if compress_tolerance is not None:
-        compression = cp.tucker_compress(tensor, compress_tolerance,
+    weights = None
+    work = tensor
+    if options.weighting > 0:
+        weights = mode_weights(tensor, options.weighting)
+        work = scale_modes(tensor, weights)
+    compression = None
+    if options.compress_tolerance is not None:
+        compression = cp.tucker_compress(work, options.compress_tolerance,
                                          callback=scaled(callback, 0.0, 0.2))
         work = compression.core
+    norm_sq = cp.tensor_norm_sq(tensor) if weights is not None else None
+    compressed = time.perf_counter()
     results: list[FactoredBRDF] = []
     per_pack: list[dict] = []
-    compressed = time.perf_counter()
 
-    def as_model(factors, packs_now, error_sq, seconds):
-        full = compression.lift(factors) if compression is not None else factors
-        if compression is not None:
-            error_sq = error_sq + compression.error_sq
-        angular = [_smooth(f, a, smoothing).astype(np.float32)
+    def full_factors(factors):
+        full = compression.lift(factors) if compression is not None else list(factors)
+        if weights is not None:
+            full = [f / w[:, None] for f, w in zip(full, weights)] + full[len(weights):]
+        return full
+
+    def true_error_sq(full, fitted_error_sq):
+        """The unweighted table error (one float64 pass when weighted)."""
+        if weights is None:
+            return fitted_error_sq + (compression.error_sq if compression else 0.0)
+        return cp.residual_norm_sq(tensor, full, norm_sq)
+
+    def as_model(factors, packs_now, fitted_error_sq, seconds):
+        full = full_factors(factors)
+        angular = [_smooth(f, a, options.smoothing).astype(np.float32)
                    for f, a in zip(full[:-1], table.grid.parameterization.axes)]
         model = FactoredBRDF(factors=angular, spectral=full[-1].astype(np.float32), **base)
-        model.report = dict(common_report, packs=packs_now, terms=model.terms,
-                            factor_seconds=seconds, bytes=model.nbytes,
-                            relative_rms=_relative(table, error_sq),
-                            compression=None if compression is None else {
-                                "core_shape": list(compression.core.shape),
-                                "relative_error": float(np.sqrt(compression.error_sq
-                                                                / max(compression.tensor_norm_sq,
-                                                                      1e-300))),
-                                "seconds": compressed - tabulated})
+        model.report = dict(
+            common_report, packs=packs_now, terms=model.terms, factor_seconds=seconds,
+            bytes=model.nbytes, relative_rms=_relative(table, true_error_sq(full,
+                                                                           fitted_error_sq)),
+            weighting=options.weighting,
+            compression=None if compression is None else {
+                "core_shape": list(compression.core.shape),
+                "relative_error": float(np.sqrt(compression.error_sq
+                                                / max(compression.tensor_norm_sq, 1e-300))),
+                "seconds": compressed - tabulated})
         return model
+
+    fitted_norm_sq = compression.tensor_norm_sq if compression else cp.tensor_norm_sq(work)
 
     def on_pack(pack, factors, error_sq):
         seconds = time.perf_counter() - tabulated
         model = None
+        total = error_sq + (compression.error_sq if compression else 0.0)
+        # The objective the fit minimises (weighted when weighting > 0); monotone.
         row = {"packs": pack, "seconds": seconds,
-               "relative_rms": _relative(table, error_sq + (compression.error_sq
-                                                           if compression else 0.0))}
+               "fitted_relative_error": float(np.sqrt(total / max(fitted_norm_sq, 1e-300)))}
         stop = False
         if target is not None:
             model = as_model(factors, pack, error_sq, seconds)
@@ -308,8 +393,9 @@ def _cp_series(table, counts, max_packs, method, compress_tolerance, smoothing, 
             results.append(model or as_model(factors, pack, error_sq, seconds))
         return stop
 
-    factors, history = cp.fit_packs(work, max_packs, pack_size=base["pack_size"], method=method,
-                                    settings=settings, seed=seed, on_pack=on_pack,
+    factors, history = cp.fit_packs(work, max_packs, pack_size=base["pack_size"],
+                                    method=options.method, settings=options.settings,
+                                    seed=options.seed, on_pack=on_pack,
                                     callback=scaled(callback, 0.2, 1.0))
     if not history.error_sq:  # zero BRDF: one pack of zeros
         factors = [np.zeros((n, base["pack_size"])) for n in work.shape]

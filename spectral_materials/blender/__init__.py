@@ -1,0 +1,1 @@
+"""Blender adapters (everything that imports ``bpy``); filled in by the extension issue."""
