@@ -28,13 +28,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from spectral_materials.core import FactoredBRDF, cp, metrics, models, spectra  # noqa: E402
-from spectral_materials.core.colour_pipeline import (  # noqa: E402
-    white_xyz,
-    xyz_to_display,
-    xyz_weights,  # noqa: E402
-)
+from spectral_materials.core.colour_pipeline import white_xyz, xyz_to_display  # noqa: E402
 from spectral_materials.core.factor import factor_brdf_series, prepare_table  # noqa: E402
-from spectral_materials.core.tabulate import interpolate  # noqa: E402
 
 PACKS = [1, 2, 4, 8, 16, 22, 32, 48]
 ILLUMINANTS = ("D65", "FL2")
@@ -87,19 +82,6 @@ class Evaluation:
             out[f"sphere_{illum}"] = metrics.delta_e94_stats(
                 self.ref_sphere[illum], xyz_fn(self.sphere_wi, self.sphere_wo, illum), illum)
         return out
-
-
-def table_floor_xyz(table):
-    """XYZ of the table itself (multilinear lookup, no factorisation)."""
-    def xyz(wi, wo, illum):
-        coords = table.grid.parameterization.forward(wi, wo)
-        values = interpolate(table.values, table.grid, coords)
-        weights = xyz_weights(illum, table.wavelengths)
-        if table.basis is not None:
-            weights = table.basis.vectors.T @ weights
-        lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        return (values * lit[:, None]) @ weights
-    return xyz
 
 
 def table_error(table, factors) -> float:
@@ -213,7 +195,7 @@ def bench_case(case_id: str, case: dict, quick: bool, log, out: Path) -> dict:
     result = {"title": case["title"], "shape": list(table.values.shape), "target": case["target"],
               "tabulate_seconds": tab_seconds, "table_bytes": int(table.values.nbytes),
               "basis_relative_error": float(np.sqrt(table.basis_error_sq / table.norm_sq)),
-              "floor": ev.score(table_floor_xyz(table)), "methods": {}}
+              "floor": ev.score(table.xyz), "methods": {}}
     variants = {"joint": dict(method="joint"), "greedy": dict(method="greedy"),
                 "joint γ=0": dict(method="joint", weighting=0.0)}
     for method, options in variants.items():

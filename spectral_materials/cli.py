@@ -345,27 +345,6 @@ def _model_xyz(model, wi: np.ndarray, wo: np.ndarray, illuminant: str) -> np.nda
     return out
 
 
-def table_floor_xyz(table, wi: np.ndarray, wo: np.ndarray, illuminant: str) -> np.ndarray:
-    """XYZ of a :class:`~spectral_materials.core.tabulate.Table` looked up multilinearly
-    (as the factor textures are, ``edge="linear"``) without factorising it."""
-    from .core import colour_pipeline
-    from .core.tabulate import interpolate
-
-    weights = colour_pipeline.xyz_weights(illuminant, table.wavelengths)
-    if table.basis is not None:
-        weights = table.basis.vectors.T @ weights
-    out = np.empty((wi.shape[0], 3))
-    param = table.grid.parameterization
-    for begin in range(0, wi.shape[0], _XYZ_CHUNK):
-        sl = slice(begin, begin + _XYZ_CHUNK)
-        values = interpolate(table.values, table.grid, param.forward(wi[sl], wo[sl]))
-        if not table.cosine_weighted:
-            values = values * np.clip(wi[sl, 2:3], 0.0, None)
-        lit = (wi[sl, 2] > 0) & (wo[sl, 2] > 0)
-        out[sl] = (values * lit[:, None]) @ weights
-    return out
-
-
 def _stats(reference: dict, xyz_fn, wi, wo, illuminants) -> dict:
     from .core import metrics
 
@@ -531,7 +510,7 @@ def cmd_factor(args, progress: Progress) -> int:
         "packs_fitted": None,
         "terms": None,
         "relative_rms": float(series[-1].report.get("basis_relative_error", 0.0)),
-        "de94": _stats(reference, lambda a, b, i: table_floor_xyz(table, a, b, i), wi, wo,
+        "de94": _stats(reference, table.xyz, wi, wo,
                        illuminants),
         "factor_seconds": None,
         "tabulate_seconds": float(table.seconds),

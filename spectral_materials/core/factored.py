@@ -25,7 +25,7 @@ import numpy as np
 
 from . import colour_pipeline, spectra
 from .params import get_parameterization
-from .tabulate import Grid
+from .tabulate import Grid, multilinear
 
 FORMAT = "spectral_materials.factored_brdf"
 FORMAT_VERSION = 1
@@ -112,20 +112,8 @@ class FactoredBRDF:
     @staticmethod
     def _group_interpolate(array, lookups, shape, depth):
         """Multilinear lookup in a factor stored as (prod(shape)·depth, K) → (N, depth, K)."""
-        k_terms = array.shape[1]
-        table = array.astype(np.float64).reshape(int(np.prod(shape)), depth, k_terms)
-        strides = np.cumprod((tuple(shape[1:]) + (1,))[::-1])[::-1]
-        n = lookups[0][0].shape[0]
-        out = np.zeros((n, depth, k_terms))
-        for corner in range(2 ** len(lookups)):
-            index = np.zeros(n, dtype=np.int64)
-            weight = np.ones(n)
-            for k, (i0, i1, w) in enumerate(lookups):
-                upper = (corner >> k) & 1
-                index += (i1 if upper else i0) * strides[k]
-                weight *= w if upper else 1.0 - w
-            out += weight[:, None, None] * table[index]
-        return out
+        table = array.astype(np.float64).reshape(int(np.prod(shape)), depth, array.shape[1])
+        return multilinear(table, shape, lookups)
 
     def _to_wavelengths(self, coefficients: np.ndarray) -> np.ndarray:
         return coefficients if self.basis is None else coefficients @ self.basis.T

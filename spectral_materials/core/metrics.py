@@ -114,9 +114,5 @@ def cosine_weighted_luminance_rms(brdf, model, count: int = 8000, seed: int = 19
     wi, wo = random_direction_pairs(count, seed)
     flat = np.ones(spectra.WAVELENGTHS_REFERENCE.size)
     ref = reference_xyz(brdf, wi, wo, flat)[:, 1]
-    test = model.xyz(wi, wo, _resample_flat(model.wavelengths))[:, 1]
+    test = model.xyz(wi, wo, np.ones(np.asarray(model.wavelengths).size))[:, 1]
     return float(np.sqrt(np.mean((ref - test) ** 2)))
-
-
-def _resample_flat(wavelengths: np.ndarray) -> np.ndarray:
-    return np.ones(np.asarray(wavelengths).size)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import spectra
+from . import colour_pipeline, spectra
 from .basis import LinearModelBasis
 from .errors import InvalidBRDFData
 from .params import Parameterization, axis_lookup
@@ -111,6 +111,23 @@ class Table:
     basis_error_sq: float
     norm_sq: float
     seconds: float
+
+    def xyz(self, wi: np.ndarray, wo: np.ndarray, illuminant: str | np.ndarray = "D65",
+            chunk: int = 8192) -> np.ndarray:
+        """Linear XYZ (N, 3) of the table itself, looked up as the factors are (the error floor)."""
+        weights = colour_pipeline.xyz_weights(illuminant, self.wavelengths)
+        if self.basis is not None:
+            weights = self.basis.vectors.T @ weights
+        param = self.grid.parameterization
+        out = np.empty((wi.shape[0], 3))
+        for begin in range(0, wi.shape[0], chunk):
+            sl = slice(begin, begin + chunk)
+            values = interpolate(self.values, self.grid, param.forward(wi[sl], wo[sl]))
+            if not self.cosine_weighted:
+                values = values * np.clip(wi[sl, 2:3], 0.0, None)
+            lit = (wi[sl, 2] > 0) & (wo[sl, 2] > 0)
+            out[sl] = (values * lit[:, None]) @ weights
+        return out
 
 
 def _describe_bad(grid: Grid, flat: np.ndarray, wavelengths: np.ndarray, bad: np.ndarray) -> str:
@@ -219,20 +236,28 @@ def tabulate(
     )
 
 
-def interpolate(values: np.ndarray, grid: Grid, coords: np.ndarray,
-                edge: str = "linear") -> np.ndarray:
-    """Multilinear lookup of a full table ``values (*grid.shape, S)`` at coords (N, d) → (N, S)."""
-    lookups = grid.lookup(coords, edge)
-    d = len(lookups)
-    flat = values.reshape(-1, values.shape[-1])
-    strides = np.cumprod((grid.shape[1:] + (1,))[::-1])[::-1]
-    out = np.zeros((coords.shape[0], values.shape[-1]))
-    for corner in range(2**d):
-        index = np.zeros(coords.shape[0], dtype=np.int64)
-        weight = np.ones(coords.shape[0])
+def multilinear(flat: np.ndarray, shape: tuple[int, ...], lookups: list[tuple]) -> np.ndarray:
+    """Multilinear lookup in ``flat`` (prod(shape), …) with per-axis ``(i0, i1, w)`` → (N, …).
+
+    The 2^d corners of each cell are gathered and weighted; trailing axes of
+    ``flat`` (spectra, terms) come along unchanged.
+    """
+    strides = np.cumprod((tuple(shape[1:]) + (1,))[::-1])[::-1]
+    n = lookups[0][0].shape[0]
+    out = np.zeros((n,) + flat.shape[1:])
+    trailing = (slice(None),) + (None,) * (flat.ndim - 1)
+    for corner in range(2 ** len(lookups)):
+        index = np.zeros(n, dtype=np.int64)
+        weight = np.ones(n)
         for k, (i0, i1, w) in enumerate(lookups):
             upper = (corner >> k) & 1
             index += (i1 if upper else i0) * strides[k]
             weight *= w if upper else (1.0 - w)
-        out += weight[:, None] * flat[index]
+        out += weight[trailing] * flat[index]
     return out
+
+
+def interpolate(values: np.ndarray, grid: Grid, coords: np.ndarray,
+                edge: str = "linear") -> np.ndarray:
+    """Multilinear lookup of a full table ``values (*grid.shape, S)`` at coords (N, d) → (N, S)."""
+    return multilinear(values.reshape(-1, values.shape[-1]), grid.shape, grid.lookup(coords, edge))

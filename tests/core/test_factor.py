@@ -207,3 +207,45 @@ def test_absurd_parameters_get_clear_errors():
         factor_brdf(brdf, target_de94=-1)
     with pytest.raises(TypeError, match="callable"):
         factor_brdf("not a brdf")
+
+
+# ----------------------------------------------------------- perceptual weighting
+
+
+def test_mode_weights_and_scaling_fold_back_exactly():
+    from spectral_materials.core.factor import mode_weights, scale_modes
+
+    rng = np.random.default_rng(0)
+    tensor = rng.uniform(0, 1, (6, 7, 5, 3)).astype(np.float32)
+    tensor[2] *= 1e-3  # a dim slice gets a large weight
+    tensor[4] = 0.0    # an empty slice gets weight 1
+    weights = mode_weights(tensor, 0.5)
+    assert [w.shape for w in weights] == [(6,), (7,), (5,)]
+    assert weights[0][2] > 10 and weights[0][4] == 1.0
+    assert all((w >= 1).all() and (w <= 1e3).all() for w in weights)
+    scaled = scale_modes(tensor, weights)
+    expected = tensor * np.einsum("i,j,k->ijk", *weights)[..., None]
+    np.testing.assert_allclose(scaled, expected, rtol=1e-6)
+    assert all((w == 1).all() for w in mode_weights(tensor, 0.0))
+
+
+def test_weighted_factors_fold_back_to_the_unweighted_table():
+    from spectral_materials.core import cp
+    from spectral_materials.core.factor import prepare_table
+
+    brdf = models.AshikhminShirley(nu=32, nv=32, diffuse=spectra.colorchecker_spectrum(12),
+                                   specular=0.05)
+    table = prepare_table(brdf, isotropic=True, resolution=SMALL_ISO, spectral_basis=6)
+    (model,) = factor_brdf_series(brdf, table=table, pack_counts=[4], weighting=0.7)
+    assert model.report["weighting"] == 0.7
+    reconstructed = cp.reconstruct(model.factors + [model.spectral])
+    direct = np.sum((table.values.astype(np.float64) - reconstructed) ** 2)
+    expected = np.sqrt((direct + table.basis_error_sq) / table.norm_sq)
+    assert model.report["relative_rms"] == pytest.approx(expected, rel=1e-4)
+    fitted = [row["fitted_relative_error"] for row in model.report["per_pack"]]
+    assert np.all(np.diff(fitted) <= 1e-12)
+
+
+def test_weighting_out_of_range_is_refused():
+    with pytest.raises(ValueError, match="weighting"):
+        factor_brdf(models.Lambert(albedo=0.5), packs=1, weighting=-1.0)
