@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .core.factored import json_default
+
 PROG = "python -m spectral_materials"
 EXIT_ERROR = 2
 EXIT_CANCELLED = 130
@@ -382,13 +384,9 @@ def format_table(rows: list[dict], illuminants) -> str:
 
 
 def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
     if isinstance(value, Path):
         return str(value)
-    raise TypeError(f"not JSON-serialisable: {type(value).__name__}")
+    return json_default(value)
 
 
 def _check_output_path(option: str, path: Path | None) -> None:

@@ -76,13 +76,13 @@ def light_cmf_spectra(
     illuminants: Iterable[str | np.ndarray], wavelengths: np.ndarray
 ) -> np.ndarray:
     """Light × CMF products for each illuminant (name or SPD array) → (3·n, L)."""
+    from .colour_pipeline import illuminant_spd
+
     wl = spectra.check_wavelengths(wavelengths)
     cmf = spectra.cmfs(wl)
     rows = []
     for light in illuminants:
-        spd = spectra.illuminant(light, wl) if isinstance(light, str) else np.asarray(light, float)
-        if spd.shape != wl.shape:
-            raise ValueError(f"illuminant SPD has shape {spd.shape}, expected {wl.shape}")
+        spd = illuminant_spd(light, wl)
         rows.extend((spd * cmf[:, c]) for c in range(3))
     return np.asarray(rows)
 

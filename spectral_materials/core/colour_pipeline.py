@@ -63,6 +63,8 @@ def white_xyz(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.ndarr
 def xyz_to_lab(xyz: np.ndarray, white: np.ndarray) -> np.ndarray:
     """CIELAB of ``xyz (..., 3)`` relative to the white ``white (3,)`` (its Y is the reference)."""
     white = np.asarray(white, dtype=np.float64)
+    if white.shape != (3,) or not np.isfinite(white).all() or not white[1] > 0:
+        raise ValueError(f"the white point must be a finite XYZ with Y > 0, got {white}")
     return colour.XYZ_to_Lab(np.asarray(xyz, dtype=np.float64) / white[1], colour.XYZ_to_xy(white))
 
 

@@ -258,6 +258,8 @@ def factor_brdf_series(
 def _check_options(method, packs, pack_counts, target_de94, pack_size, smoothing) -> None:
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if target_de94 is not None and method in ("svd", "nd"):
+        raise ValueError("target_de94 applies to CP packs; give the separable methods packs=")
     for count in ([packs] if packs is not None else []) + list(pack_counts or []):
         if not 1 <= int(count) <= MAX_PACKS:
             raise ValueError(f"packs must be 1..{MAX_PACKS}, got {count}")
@@ -340,7 +342,7 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
         compression = cp.tucker_compress(work, options.compress_tolerance,
                                          callback=scaled(callback, 0.0, 0.2))
         work = compression.core
-    norm_sq = cp.tensor_norm_sq(tensor) if weights is not None else None
+    norm_sq = cp.tensor_norm_sq(tensor)
     compressed = time.perf_counter()
     results: list[FactoredBRDF] = []
     per_pack: list[dict] = []
@@ -352,15 +354,16 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
         return full
 
     def true_error_sq(full, fitted_error_sq):
-        """The unweighted table error (one float64 pass when weighted)."""
-        if weights is None:
+        """The table error of the stored factors (one float64 pass if weighted or smoothed)."""
+        if weights is None and options.smoothing <= 1:
             return fitted_error_sq + (compression.error_sq if compression else 0.0)
         return cp.residual_norm_sq(tensor, full, norm_sq)
 
     def as_model(factors, packs_now, fitted_error_sq, seconds):
         full = full_factors(factors)
-        angular = [_smooth(f, a, options.smoothing).astype(np.float32)
-                   for f, a in zip(full[:-1], table.grid.parameterization.axes)]
+        full = [_smooth(f, a, options.smoothing)
+                for f, a in zip(full[:-1], table.grid.parameterization.axes)] + full[-1:]
+        angular = [f.astype(np.float32) for f in full[:-1]]
         model = FactoredBRDF(factors=angular, spectral=full[-1].astype(np.float32), **base)
         model.report = dict(
             common_report, packs=packs_now, terms=model.terms, factor_seconds=seconds,
@@ -432,13 +435,24 @@ def _separable_series(table, counts, method, nd_norm, base, common_report, start
             result = separable.normalized_decomposition(table.values, split, terms, p=nd_norm,
                                                         callback=callback)
         seconds = time.perf_counter() - begin
-        residual = table.values.astype(np.float64) - result.reconstruct()
-        error_sq = float(np.sum(residual * residual))
+        error_sq = _separable_error_sq(table.values, split, result)
         model = FactoredBRDF(form="separable", split=split, g=result.g, h=result.h, **base)
         model.report = dict(common_report, packs=terms, terms=terms, factor_seconds=seconds,
                             bytes=model.nbytes, relative_rms=_relative(table, error_sq))
         out.append(model)
     return out
+
+
+def _separable_error_sq(tensor: np.ndarray, split, result) -> float:
+    """‖M − G Hᵀ‖² = ‖M‖² − 2 Σ G∘(M H) + Σ (GᵀG)∘(HᵀH), float64 sums, no table copy in float64."""
+    matrix = separable.matrix_view(tensor, split)
+    g = result.g.astype(np.float64)
+    h = result.h.astype(np.float64)
+    cross = 0.0
+    for sl in cp.chunk_slices(matrix.shape[0], 8 * matrix.shape[1]):
+        cross += float(np.sum(g[sl] * (matrix[sl].astype(np.float64) @ h)))
+    model_sq = float(np.sum((g.T @ g) * (h.T @ h)))
+    return max(cp.tensor_norm_sq(tensor) - 2.0 * cross + model_sq, 0.0)
 
 
 def _smooth(factor: np.ndarray, axis, width: int) -> np.ndarray:

@@ -213,7 +213,7 @@ class FactoredBRDF:
         else:
             arrays["g"] = self.g.astype(np.float32)
             arrays["h"] = self.h.astype(np.float32)
-        arrays["meta"] = np.frombuffer(json.dumps(self._meta(), default=_json_default).encode(),
+        arrays["meta"] = np.frombuffer(json.dumps(self._meta(), default=json_default).encode(),
                                        dtype=np.uint8)
         with open(path, "wb") as handle:
             np.savez(handle, **arrays)
@@ -234,9 +234,27 @@ class FactoredBRDF:
             meta = json.loads(arrays["meta"].tobytes().decode())
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ValueError(f"{path}: corrupt 'meta' entry ({exc})") from exc
-        if meta.get("format") != FORMAT or meta.get("version") != FORMAT_VERSION:
-            raise ValueError(f"{path}: format {meta.get('format')} v{meta.get('version')} "
-                             f"is not {FORMAT} v{FORMAT_VERSION}")
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT \
+                or meta.get("version") != FORMAT_VERSION:
+            found = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+            raise ValueError(f"{path}: format {found} is not {FORMAT} v{FORMAT_VERSION}")
+        try:
+            model = cls._from_meta(meta, arrays)
+            model.validate()
+        except (KeyError, TypeError, IndexError) as exc:
+            raise ValueError(f"{path}: incomplete or malformed factor file ({exc!r})") from exc
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from exc
+        return model
+
+    @classmethod
+    def _from_meta(cls, meta: dict, arrays: dict) -> FactoredBRDF:
+        if meta["form"] not in ("cp", "separable"):
+            raise ValueError(f"unknown form {meta['form']!r}")
+        if meta["edge"] not in ("linear", "clamp"):
+            raise ValueError(f"unknown edge rule {meta['edge']!r}")
+        if int(meta["pack_size"]) < 1:
+            raise ValueError(f"pack_size must be ≥ 1, got {meta['pack_size']}")
         grid = meta["grid"]
         resolution = tuple(int(n) for n in grid["resolution"])
         kwargs = dict(
@@ -252,13 +270,13 @@ class FactoredBRDF:
         else:
             kwargs["split"] = tuple(tuple(s) for s in meta["split"])
             kwargs["g"], kwargs["h"] = arrays["g"], arrays["h"]
-        model = cls(**kwargs)
-        model.validate()
-        return model
+        return cls(**kwargs)
 
     def validate(self) -> None:
         """Check array shapes and finiteness against the grid; ValueError naming the array."""
         shape = self.grid.shape
+        if self.basis is not None and (self.basis.ndim != 2 or not np.isfinite(self.basis).all()):
+            raise ValueError("basis must be a finite 2-D array")
         s = self.spectral_size
         if self.basis is not None and self.basis.shape[0] != self.wavelengths.size:
             raise ValueError(f"basis has {self.basis.shape[0]} rows for {self.wavelengths.size} "
@@ -287,7 +305,7 @@ class FactoredBRDF:
                 raise ValueError(f"{name} has {int((~np.isfinite(a)).sum())} non-finite values")
 
 
-def _json_default(value):
+def json_default(value):
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):

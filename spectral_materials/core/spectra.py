@@ -46,7 +46,7 @@ def wavelength_grid(start: float = 380.0, stop: float = 780.0, step: float = 5.0
     """Return an inclusive, uniform wavelength grid in nm."""
     if not (np.isfinite([start, stop, step]).all() and step > 0 and stop >= start):
         raise ValueError(f"invalid wavelength grid: start={start}, stop={stop}, step={step}")
-    count = int(round((stop - start) / step)) + 1
+    count = int(np.floor((stop - start) / step + 1e-9)) + 1  # never past ``stop``
     return start + step * np.arange(count, dtype=np.float64)
 
 
@@ -74,11 +74,14 @@ def sample_weights(wavelengths: np.ndarray) -> np.ndarray:
     return np.diff(edges)
 
 
-def _resample(domain: np.ndarray, values: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
+def _resample(domain: np.ndarray, values: np.ndarray, wavelengths: np.ndarray,
+              outside: float | None = None) -> np.ndarray:
+    """Linear resampling; beyond the data, the end values (``outside=None``) or ``outside``."""
     values = np.asarray(values, dtype=np.float64)
     if values.ndim == 1:
-        return np.interp(wavelengths, domain, values)
-    return np.stack([np.interp(wavelengths, domain, v) for v in values.T], axis=-1)
+        return np.interp(wavelengths, domain, values, left=outside, right=outside)
+    return np.stack([np.interp(wavelengths, domain, v, left=outside, right=outside)
+                     for v in values.T], axis=-1)
 
 
 def spectrum_values(spectrum: SpectrumLike, wavelengths: np.ndarray) -> np.ndarray:
@@ -108,7 +111,8 @@ def spectrum_values(spectrum: SpectrumLike, wavelengths: np.ndarray) -> np.ndarr
 @lru_cache(maxsize=32)
 def _cmfs_cached(key: tuple) -> np.ndarray:
     cmfs = colour.MSDS_CMFS[OBSERVER]
-    out = _resample(cmfs.wavelengths, cmfs.values, np.asarray(key))
+    # The observer sees nothing outside its tabulated 360–830 nm.
+    out = _resample(cmfs.wavelengths, cmfs.values, np.asarray(key), outside=0.0)
     out.setflags(write=False)
     return out
 

@@ -142,17 +142,6 @@ def _describe_bad(grid: Grid, flat: np.ndarray, wavelengths: np.ndarray, bad: np
     return "; ".join(parts)
 
 
-def check_finite_samples(values: np.ndarray, where: str) -> None:
-    """Raise :class:`InvalidBRDFData` with counts if ``values`` has NaN/inf/negatives."""
-    nan = int(np.isnan(values).sum())
-    inf = int(np.isinf(values).sum())
-    neg = int((values < 0).sum())
-    if nan or inf or neg:
-        raise InvalidBRDFData(
-            f"{where}: {nan} NaN, {inf} inf and {neg} negative samples of {values.size}"
-        )
-
-
 def tabulate(
     brdf,
     grid: Grid,
@@ -176,7 +165,8 @@ def tabulate(
     start = time.perf_counter()
     wl = spectra.check_wavelengths(
         spectra.WAVELENGTHS_REFERENCE if wavelengths is None else wavelengths)
-    if basis is not None and not np.allclose(basis.wavelengths, wl):
+    if basis is not None and (basis.wavelengths.shape != wl.shape
+                              or not np.allclose(basis.wavelengths, wl)):
         raise ValueError("the spectral basis is defined on other wavelengths than the table")
     depth = wl.size if basis is None else basis.size
     if grid.size * depth > MAX_TABLE_ENTRIES:
@@ -209,7 +199,7 @@ def tabulate(
                     first_bad = _describe_bad(grid, flat[ok], wl, bad)
                 continue
             if cosine_weighted:
-                f *= wi[ok, 2:3]
+                f = f * wi[ok, 2:3]  # never in place: the array may be the caller's
             norm_sq += float(np.sum(f * f))
             if vectors is not None:
                 f = f @ vectors

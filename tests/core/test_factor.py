@@ -249,3 +249,39 @@ def test_weighted_factors_fold_back_to_the_unweighted_table():
 def test_weighting_out_of_range_is_refused():
     with pytest.raises(ValueError, match="weighting"):
         factor_brdf(models.Lambert(albedo=0.5), packs=1, weighting=-1.0)
+
+
+def test_load_refuses_malformed_meta(tmp_path):
+    import json
+
+    model = factor_brdf(models.Lambert(albedo=0.5), resolution=(6, 8, 6), packs=1)
+    path = model.save(tmp_path / "m.npz")
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(arrays["meta"].tobytes())
+    for key, value in (("form", "tucker"), ("pack_size", 0), ("edge", "cubic"), ("grid", None)):
+        broken = dict(meta, **{key: value})
+        arrays["meta"] = np.frombuffer(json.dumps(broken).encode(), dtype=np.uint8)
+        np.savez(tmp_path / "bad.npz", **arrays)
+        with pytest.raises(ValueError):
+            FactoredBRDF.load(tmp_path / "bad.npz")
+
+
+def test_smoothing_is_counted_in_the_reported_error():
+    brdf = models.AshikhminShirley(nu=16, nv=16, diffuse=PATCH9, specular=0.05)
+    plain = factor_brdf(brdf, resolution=SMALL_ISO, packs=2, spectral_basis=5, weighting=0.0)
+    smooth = factor_brdf(brdf, resolution=SMALL_ISO, packs=2, spectral_basis=5, weighting=0.0,
+                         smoothing=4)
+    assert smooth.report["relative_rms"] > plain.report["relative_rms"]
+
+
+def test_tabulation_never_writes_into_the_callers_array():
+    inner = models.Lambert(albedo=0.5)
+
+    def read_only(wi, wo, wl):
+        out = inner(wi, wo, wl)
+        out.setflags(write=False)
+        return out
+
+    model = factor_brdf(read_only, isotropic=True, resolution=(6, 8, 6), packs=1)
+    assert model.report["relative_rms"] < 1e-3

@@ -169,8 +169,8 @@ class TestCmfs:
         mid = cmfs([555.5])[0]
         np.testing.assert_allclose(mid, table(reference, [555.0, 556.0]).mean(axis=0),
                                    rtol=1e-12)
-        # Constant beyond the dataset's 360..830 nm.
-        np.testing.assert_array_equal(cmfs([300.0, 900.0]), table(reference, [360.0, 830.0]))
+        # The observer sees nothing beyond the dataset's 360..830 nm.
+        np.testing.assert_array_equal(cmfs([300.0, 900.0]), np.zeros((2, 3)))
 
 
 class TestIlluminant:
