@@ -273,7 +273,9 @@ def write_markdown(results: dict, path: Path) -> None:
              "Printed by `scripts/bench_factor.py` (machine: "
              f"{results['machine']}). ΔE94 per shared/PROTOCOL.md: 20 000 random pairs "
              "(mean / p95 / max) and the sphere protocol (all lit pixels at 0°, 30°, 60°, 80°).",
-             "Times are factorisation seconds (after tabulation), cumulative up to each row.", ""]
+             "Times are fitting seconds after tabulation (HOSVD, weighting and ALS), cumulative "
+             "up to each row; the error bookkeeping of the other rows' snapshots is not counted.",
+             ""]
     for cid, case in results["cases"].items():
         lines += [f"## ({cid}) {case['title']}", "",
                   f"Table {case['shape']} ({case['table_bytes'] / 2**20:.0f} MiB float32), "
@@ -412,7 +414,7 @@ def plot(results: dict, path: Path) -> None:
         ax.axhline(case["floor"]["pairs_D65"]["mean"], color="grey", lw=0.8, label="table floor")
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("factor seconds")
+        ax.set_xlabel("fitting seconds (after tabulation)")
         ax.set_ylabel("mean ΔE94, D65, random pairs")
         ax.set_title(f"({cid})", fontsize=10)
         ax.legend(fontsize=7)

@@ -346,6 +346,7 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
     compressed = time.perf_counter()
     results: list[FactoredBRDF] = []
     per_pack: list[dict] = []
+    bookkeeping = [0.0]  # seconds spent building snapshot models and their error figures
 
     def full_factors(factors):
         full = compression.lift(factors) if compression is not None else list(factors)
@@ -360,6 +361,7 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
         return cp.residual_norm_sq(tensor, full, norm_sq)
 
     def as_model(factors, packs_now, fitted_error_sq, seconds):
+        begin = time.perf_counter()
         full = full_factors(factors)
         full = [_smooth(f, a, options.smoothing)
                 for f, a in zip(full[:-1], table.grid.parameterization.axes)] + full[-1:]
@@ -375,12 +377,17 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
                 "relative_error": float(np.sqrt(compression.error_sq
                                                 / max(compression.tensor_norm_sq, 1e-300))),
                 "seconds": compressed - tabulated})
+        bookkeeping[0] += time.perf_counter() - begin
         return model
+
+    def fit_seconds():
+        """Fitting time so far: snapshots taken for other pack counts do not count."""
+        return time.perf_counter() - tabulated - bookkeeping[0]
 
     fitted_norm_sq = compression.tensor_norm_sq if compression else cp.tensor_norm_sq(work)
 
     def on_pack(pack, factors, error_sq):
-        seconds = time.perf_counter() - tabulated
+        seconds = fit_seconds()
         model = None
         total = error_sq + (compression.error_sq if compression else 0.0)
         # The objective the fit minimises (weighted when weighting > 0); monotone.
@@ -405,8 +412,7 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
         error_sq = 0.0
     else:
         error_sq = history.error_sq[-1]
-    final = as_model(factors, max(1, len(history.error_sq)), error_sq,
-                     time.perf_counter() - tabulated)
+    final = as_model(factors, max(1, len(history.error_sq)), error_sq, fit_seconds())
     final.report["per_pack"] = per_pack
     final.report["stopped"] = (
         "target reached" if target is not None and per_pack and per_pack[-1].get(
