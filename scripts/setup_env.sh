@@ -23,9 +23,11 @@ if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c 'import sys; assert sys.ve
   fi
 fi
 stamp=.venv/.requirements.sha
-want="$(cat requirements/*.txt | sha256sum | cut -d' ' -f1)"
+want="$(cat requirements/*.txt pyproject.toml | sha256sum | cut -d' ' -f1)"
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   .venv/bin/python -m pip install -q --upgrade pip
   .venv/bin/python -m pip install -q -r requirements/dev.txt
+  # The project itself, editable, so `python -m spectral_materials` works from anywhere.
+  .venv/bin/python -m pip install -q --no-deps -e .
   echo "$want" > "$stamp"
 fi
