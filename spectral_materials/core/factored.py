@@ -162,6 +162,8 @@ class FactoredBRDF:
         """The first ``packs`` packs (a greedy fit's prefix is its own best fit)."""
         if self.form != "cp":
             raise ValueError("truncation applies to CP factor packs")
+        if packs < 1:
+            raise ValueError(f"keep at least one pack, got {packs}")
         n = min(self.terms, packs * self.pack_size)
         return replace(self, factors=[f[:, :n] for f in self.factors],
                        spectral=self.spectral[:, :n], report=dict(self.report))

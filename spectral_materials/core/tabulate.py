@@ -200,6 +200,10 @@ def tabulate(
                 continue
             if cosine_weighted:
                 f = f * wi[ok, 2:3]  # never in place: the array may be the caller's
+            if np.abs(f).max(initial=0.0) > np.finfo(np.float32).max:
+                raise InvalidBRDFData(
+                    f"the BRDF exceeds the float32 range ({np.abs(f).max():.3g}) near "
+                    f"{_describe_bad(grid, flat[ok], wl, np.abs(f) > np.finfo(np.float32).max)}")
             norm_sq += float(np.sum(f * f))
             if vectors is not None:
                 f = f @ vectors

@@ -285,3 +285,13 @@ def test_tabulation_never_writes_into_the_callers_array():
 
     model = factor_brdf(read_only, isotropic=True, resolution=(6, 8, 6), packs=1)
     assert model.report["relative_rms"] < 1e-3
+
+
+def test_values_beyond_float32_are_refused_and_truncation_keeps_a_pack():
+    inner = models.Lambert(albedo=0.5)
+    with pytest.raises(InvalidBRDFData, match="float32"):
+        factor_brdf(lambda wi, wo, wl: inner(wi, wo, wl) * 1e40, isotropic=True,
+                    resolution=(6, 8, 6), packs=1)
+    model = factor_brdf(inner, resolution=(6, 8, 6), packs=1)
+    with pytest.raises(ValueError, match="at least one pack"):
+        model.truncated(0)
