@@ -404,8 +404,7 @@ def _check_output_path(option: str, path: Path | None) -> None:
 
 def _resolve_parameterization(args, brdf, table_file, wavelengths):
     """(name, isotropic, resolution) for prepare_table, with the file's own as defaults."""
-    from .core.factor import is_isotropic
-    from .core.params import get_parameterization
+    from .core.factor import resolve_parameterization
 
     if args.parameterization is None and table_file is not None:
         param = table_file.grid.parameterization
@@ -413,13 +412,8 @@ def _resolve_parameterization(args, brdf, table_file, wavelengths):
         resolution = tuple(args.resolution) if args.resolution else table_file.grid.shape
         return param, name, iso, resolution
     name = args.parameterization or "io"
-    if name.endswith("_iso"):
-        iso = True
-    elif args.isotropic == "auto":
-        iso = is_isotropic(brdf, wavelengths)
-    else:
-        iso = args.isotropic == "yes"
-    param = get_parameterization(name.removesuffix("_iso"), iso)
+    requested = {"auto": None, "yes": True, "no": False}[args.isotropic]
+    param, iso = resolve_parameterization(brdf, name, requested, wavelengths)
     if args.resolution:
         resolution = tuple(args.resolution)
         if len(resolution) != param.ndim:

@@ -24,7 +24,7 @@ import numpy as np
 from . import cp, metrics, separable, spectra
 from .basis import LinearModelBasis, light_cmf_spectra, linear_model_basis
 from .factored import FactoredBRDF
-from .params import get_parameterization
+from .params import Parameterization, get_parameterization
 from .progress import ProgressCallback, report, scaled
 from .tabulate import Grid, Table, tabulate
 
@@ -176,6 +176,20 @@ def factor_brdf(
     return series[-1]
 
 
+def resolve_parameterization(brdf, name: str, isotropic: bool | None,
+                             wavelengths: np.ndarray) -> tuple[Parameterization, bool]:
+    """The parameterisation for ``name`` ("io", "hd_iso", …) and whether it is isotropic.
+
+    An ``_iso`` suffix forces the isotropic layout; ``isotropic=None`` tests the BRDF.
+    """
+    if name.endswith("_iso"):
+        isotropic = True
+        name = name.removesuffix("_iso")
+    if isotropic is None:
+        isotropic = is_isotropic(brdf, wavelengths)
+    return get_parameterization(name, isotropic), bool(isotropic)
+
+
 def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=None,
                   wavelengths=None, spectral_basis=None, cosine_weighted=True,
                   callback=None) -> Table:
@@ -184,12 +198,7 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
         raise TypeError(f"brdf must be callable f(wi, wo, wavelengths), got {type(brdf).__name__}")
     wl = spectra.check_wavelengths(
         spectra.WAVELENGTHS_REFERENCE if wavelengths is None else wavelengths)
-    if parameterization.endswith("_iso"):
-        isotropic = True
-        parameterization = parameterization[: -len("_iso")]
-    if isotropic is None:
-        isotropic = is_isotropic(brdf, wl)
-    param = get_parameterization(parameterization, isotropic)
+    param, isotropic = resolve_parameterization(brdf, parameterization, isotropic, wl)
     grid = Grid(param, tuple(resolution) if resolution is not None else param.default_resolution)
     report(callback, 0.0, "spectral basis" if spectral_basis is not None else "tabulating")
     basis = None if spectral_basis is None else build_basis(brdf, wl, isotropic, spectral_basis)
