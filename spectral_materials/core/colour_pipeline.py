@@ -40,11 +40,14 @@ def illuminant_spd(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.
     return spd
 
 
-def xyz_weights(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
+def xyz_weights(illuminant: str | np.ndarray, wavelengths: np.ndarray,
+                basis: np.ndarray | None = None) -> np.ndarray:
     """Weights W (L, 3) with XYZ = Σ_λ f·cosθi·W, normalised as the protocol says.
 
     ``W = k · E(λ) · cmf(λ) · Δλ`` with k chosen so that a white Lambertian
-    (f = 1/π) at normal incidence gives Y = 1.
+    (f = 1/π) at normal incidence gives Y = 1. With an orthonormal ``basis``
+    (L, m) the weights are its coefficients Ψᵀ W (m, 3): the light × CMF side
+    of the factor-pack paper's coefficient dot product (eq. 9).
     """
     wl = spectra.check_wavelengths(wavelengths)
     spd = illuminant_spd(illuminant, wl)
@@ -52,7 +55,8 @@ def xyz_weights(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.nda
     white_y = weights[:, 1].sum() / np.pi
     if not white_y > 0:
         raise ValueError("illuminant has no luminance on this wavelength grid")
-    return weights / white_y
+    weights = weights / white_y
+    return weights if basis is None else np.asarray(basis).T @ weights
 
 
 def white_xyz(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.ndarray:

@@ -148,9 +148,7 @@ class FactoredBRDF:
         incidence → Y = 1). With a basis this is the paper's coefficient dot
         product ``Σ_j R̃_j Ĩ_j``; otherwise a Riemann sum over ``.wavelengths``.
         """
-        weights = colour_pipeline.xyz_weights(illuminant, self.wavelengths)
-        if self.basis is not None:
-            weights = self.basis.T @ weights
+        weights = colour_pipeline.xyz_weights(illuminant, self.wavelengths, self.basis)
         coeffs = self.coefficients(wi, wo)
         if not self.cosine_weighted:
             coeffs = coeffs * np.clip(np.asarray(wi)[:, 2:3], 0.0, None)

@@ -115,9 +115,8 @@ class Table:
     def xyz(self, wi: np.ndarray, wo: np.ndarray, illuminant: str | np.ndarray = "D65",
             chunk: int = 8192) -> np.ndarray:
         """Linear XYZ (N, 3) of the table itself, looked up as the factors are (the error floor)."""
-        weights = colour_pipeline.xyz_weights(illuminant, self.wavelengths)
-        if self.basis is not None:
-            weights = self.basis.vectors.T @ weights
+        weights = colour_pipeline.xyz_weights(
+            illuminant, self.wavelengths, None if self.basis is None else self.basis.vectors)
         param = self.grid.parameterization
         out = np.empty((wi.shape[0], 3))
         for begin in range(0, wi.shape[0], chunk):
