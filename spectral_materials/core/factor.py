@@ -258,7 +258,7 @@ def factor_brdf_series(
     sub = scaled(callback, 0.3, 1.0)
     if method in ("svd", "nd"):
         return _separable_series(table, counts or [max_packs], method, nd_norm, base,
-                                 common_report, start, tabulated, sub, seed)
+                                 common_report, sub, seed)
     options = _CPOptions(method, compress_tolerance, weighting, smoothing, settings, seed)
     return _cp_series(table, counts, max_packs, options, target, target_de94, base,
                       common_report, tabulated, sub)
@@ -351,7 +351,10 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
         compression = cp.tucker_compress(work, options.compress_tolerance,
                                          callback=scaled(callback, 0.0, 0.2))
         work = compression.core
-    norm_sq = cp.tensor_norm_sq(tensor)
+    # The stored factors differ from the fitted ones when weighted or smoothed; their
+    # error then needs a pass over the table, and its norm (computed once, here).
+    exact_pass = weights is not None or options.smoothing > 1
+    norm_sq = cp.tensor_norm_sq(tensor) if exact_pass else None
     compressed = time.perf_counter()
     results: list[FactoredBRDF] = []
     per_pack: list[dict] = []
@@ -365,7 +368,7 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
 
     def true_error_sq(full, fitted_error_sq):
         """The table error of the stored factors (one float64 pass if weighted or smoothed)."""
-        if weights is None and options.smoothing <= 1:
+        if not exact_pass:
             return fitted_error_sq + (compression.error_sq if compression else 0.0)
         return cp.residual_norm_sq(tensor, full, norm_sq)
 
@@ -437,9 +440,10 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
     return results if counts else [final]
 
 
-def _separable_series(table, counts, method, nd_norm, base, common_report, start, tabulated,
-                      callback, seed):
+def _separable_series(table, counts, method, nd_norm, base, common_report, callback, seed):
     split = table.grid.parameterization.split
+    matrix = separable.matrix_view(table.values, split)
+    norm_sq = cp.tensor_norm_sq(table.values)
     out = []
     for terms in counts:
         begin = time.perf_counter()
@@ -450,7 +454,7 @@ def _separable_series(table, counts, method, nd_norm, base, common_report, start
             result = separable.normalized_decomposition(table.values, split, terms, p=nd_norm,
                                                         callback=callback)
         seconds = time.perf_counter() - begin
-        error_sq = _separable_error_sq(table.values, split, result)
+        error_sq = _separable_error_sq(matrix, norm_sq, result)
         model = FactoredBRDF(form="separable", split=split, g=result.g, h=result.h, **base)
         model.report = dict(common_report, packs=terms, terms=terms, factor_seconds=seconds,
                             bytes=model.nbytes, relative_rms=_relative(table, error_sq))
@@ -458,16 +462,15 @@ def _separable_series(table, counts, method, nd_norm, base, common_report, start
     return out
 
 
-def _separable_error_sq(tensor: np.ndarray, split, result) -> float:
+def _separable_error_sq(matrix: np.ndarray, norm_sq: float, result) -> float:
     """‖M − G Hᵀ‖² = ‖M‖² − 2 Σ G∘(M H) + Σ (GᵀG)∘(HᵀH), float64 sums, no table copy in float64."""
-    matrix = separable.matrix_view(tensor, split)
     g = result.g.astype(np.float64)
     h = result.h.astype(np.float64)
     cross = 0.0
     for sl in cp.chunk_slices(matrix.shape[0], 8 * matrix.shape[1]):
         cross += float(np.sum(g[sl] * (matrix[sl].astype(np.float64) @ h)))
     model_sq = float(np.sum((g.T @ g) * (h.T @ h)))
-    return max(cp.tensor_norm_sq(tensor) - 2.0 * cross + model_sq, 0.0)
+    return max(norm_sq - 2.0 * cross + model_sq, 0.0)
 
 
 def _smooth(factor: np.ndarray, axis, width: int) -> np.ndarray:
