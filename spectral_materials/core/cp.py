@@ -102,13 +102,24 @@ def balance(factors: Factors) -> Factors:
     return out
 
 
+def khatri_rao(factors: Sequence[np.ndarray], dtype=np.float64, rank: int | None = None
+               ) -> np.ndarray:
+    """Column-wise Kronecker product (Π n_k, R), first factor slowest (C order).
+
+    An empty list gives a row of ones; pass ``rank`` for its width.
+    """
+    rank = factors[0].shape[1] if factors else (1 if rank is None else rank)
+    out = np.ones((1, rank), dtype=dtype)
+    for f in factors:
+        out = (out[:, None, :] * np.asarray(f, dtype=dtype)[None, :, :]).reshape(-1, rank)
+    return out
+
+
 def reconstruct(factors: Sequence[np.ndarray], dtype=np.float64) -> np.ndarray:
     """The full tensor of a Kruskal model (small tensors and tests only)."""
     shape = tuple(f.shape[0] for f in factors)
-    kr = factors[0].astype(dtype)
-    for f in factors[1:-1]:
-        kr = (kr[:, None, :] * f.astype(dtype)[None, :, :]).reshape(-1, f.shape[1])
-    return (kr @ factors[-1].astype(dtype).T).reshape(shape)
+    rank = factors[0].shape[1]
+    return (khatri_rao(factors[:-1], dtype, rank) @ factors[-1].astype(dtype).T).reshape(shape)
 
 
 # --------------------------------------------------------------------------- MTTKRP
@@ -262,13 +273,6 @@ def _last_mode_partial(tensor: np.ndarray, last: np.ndarray) -> np.ndarray:
     return out.reshape((last.shape[1],) + tensor.shape[:-1])
 
 
-def _kron_columns(columns: Sequence[np.ndarray]) -> np.ndarray:
-    out = np.ones(1, dtype=columns[0].dtype if columns else np.float64)
-    for c in columns:
-        out = np.multiply.outer(out, c).reshape(-1)
-    return out
-
-
 def _mttkrp_from_partial(partial: np.ndarray, factors: Sequence[np.ndarray],
                          mode: int) -> np.ndarray:
     """MTTKRP for an angular ``mode`` from :func:`_last_mode_partial` (one GEMV pass per term)."""
@@ -278,13 +282,13 @@ def _mttkrp_from_partial(partial: np.ndarray, factors: Sequence[np.ndarray],
     out = np.empty((shape[mode], partial.shape[0]))
     dtype = partial.dtype
     for r in range(partial.shape[0]):
+        # One term's Kronecker vectors, built per term: small and contiguous.
+        column = [f[:, r: r + 1] for f in factors]
         block = partial[r].reshape(left_size, shape[mode] * right_size)
         if left_size > 1:
-            left = _kron_columns([f[:, r].astype(dtype) for f in factors[:mode]])
-            block = (left @ block)
-        block = block.reshape(shape[mode], right_size)
-        right = _kron_columns([f[:, r].astype(dtype) for f in factors[mode + 1: len(shape)]])
-        out[:, r] = block @ right
+            block = khatri_rao(column[:mode], dtype, 1)[:, 0] @ block
+        right = khatri_rao(column[mode + 1: len(shape)], dtype, 1)[:, 0]
+        out[:, r] = block.reshape(shape[mode], right_size) @ right
     return out
 
 
@@ -296,16 +300,14 @@ def _mttkrp_last(tensor: np.ndarray, factors: Sequence[np.ndarray], chunk_bytes:
     each slab of T is read once by a batched GEMM, then weighted by ``A_0``.
     """
     rank = factors[0].shape[1]
-    work = [np.ascontiguousarray(f, dtype=tensor.dtype) for f in factors[:-1]]
-    kr_rest = np.ones((1, rank), dtype=tensor.dtype)
-    for f in work[1:]:
-        kr_rest = (kr_rest[:, None, :] * f[None, :, :]).reshape(-1, rank)
+    kr_rest = khatri_rao(factors[1:-1], tensor.dtype, rank)
+    first = factors[0].astype(np.float64)
     depth = tensor.shape[-1]
     slabs = tensor.reshape(tensor.shape[0], -1, depth)
     out = np.zeros((depth, rank))
     for sl in chunk_slices(tensor.shape[0], tensor[0].nbytes, chunk_bytes):
         z = np.matmul(slabs[sl].transpose(0, 2, 1), kr_rest)  # (rows, depth, rank)
-        out += np.einsum("alr,ar->lr", z.astype(np.float64), work[0][sl].astype(np.float64))
+        out += np.einsum("alr,ar->lr", z.astype(np.float64), first[sl])
     return out
 
 
