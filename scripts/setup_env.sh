@@ -31,3 +31,12 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   .venv/bin/python -m pip install -q --no-deps -e .
   echo "$want" > "$stamp"
 fi
+# bpy loads X11/GL/EGL libraries at import even headless; a bare Debian image lacks some.
+if ! .venv/bin/python -c 'import bpy' >/dev/null 2>&1; then
+  if command -v apt-get >/dev/null 2>&1; then
+    apt-get update -qq
+    apt-get install -y -qq libxrender1 libxi6 libxkbcommon0 libxxf86vm1 libxfixes3 libsm6 \
+      libgl1 libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libglu1-mesa >/dev/null
+  fi
+  .venv/bin/python -c 'import bpy' || { echo "bpy 5.0.1 does not import; see above" >&2; exit 1; }
+fi
