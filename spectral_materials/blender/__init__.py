@@ -1,1 +1,23 @@
-"""Blender adapters (everything that imports ``bpy``); filled in by the extension issue."""
+"""Blender adapters (everything that imports ``bpy``): thin layers over :mod:`..core`.
+
+``register()`` / ``unregister()`` add and remove, in order, the property groups, the
+operators and the panels; explicit class lists live in each module.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+from . import operators, panels, properties
+
+
+def register() -> None:
+    properties.register()
+    for cls in operators.CLASSES + panels.CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(operators.CLASSES + panels.CLASSES):
+        bpy.utils.unregister_class(cls)
+    properties.unregister()

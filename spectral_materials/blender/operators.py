@@ -1,0 +1,222 @@
+"""Operators: thin wrappers over :mod:`.jobs` and :mod:`.storage`.
+
+Long jobs run modal in the UI: the work runs in a worker thread (it never touches
+``bpy``), a timer moves the progress bar, Esc cancels, and the result is committed
+on the main thread when the thread is done. In background mode, or when called
+with ``EXEC_DEFAULT`` (as ``bpy.ops`` does from scripts), they run synchronously.
+A failure or a cancel commits nothing.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty
+
+from ..core.errors import Cancelled
+from . import jobs, scene, sources, storage
+
+_EXPECTED = (sources.SourceError, scene.SceneError, storage.StorageError, ValueError,
+             OSError)
+
+
+class _Worker:
+    """A job running in a thread with a cancel flag and the latest progress."""
+
+    def __init__(self, work):
+        self.fraction, self.message = 0.0, "starting"
+        self.result = self.error = None
+        self.cancel = threading.Event()
+        self.thread = threading.Thread(target=self._run, args=(work,), daemon=True)
+        self.thread.start()
+
+    def callback(self, fraction: float, message: str) -> bool:
+        self.fraction, self.message = fraction, message
+        return self.cancel.is_set()
+
+    def _run(self, work) -> None:
+        try:
+            self.result = work(self.callback)
+        except BaseException as exc:  # noqa: BLE001 - reported on the main thread
+            self.error = exc
+
+    @property
+    def done(self) -> bool:
+        return not self.thread.is_alive()
+
+
+class _SceneJobOperator:
+    """Shared modal/synchronous machinery; subclasses say what to plan and whether to factor."""
+
+    bl_options = {"REGISTER", "UNDO"}
+    factor_materials = True
+
+    def plan(self, context) -> scene.ScenePlan:
+        raise NotImplementedError
+
+    def _report_failure(self, exc: BaseException) -> set[str]:
+        if isinstance(exc, Cancelled):
+            self.report({"WARNING"}, "Cancelled; nothing was changed")
+        elif isinstance(exc, _EXPECTED):
+            self.report({"ERROR"}, str(exc))
+        else:
+            self.report({"ERROR"}, f"Unexpected error ({type(exc).__name__}: {exc}); "
+                                   "nothing was changed")
+        return {"CANCELLED"}
+
+    def _finish(self, context, result) -> set[str]:
+        try:
+            message = jobs.commit_scene_job(context.scene, result)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+    def execute(self, context):
+        try:
+            plan = self.plan(context)
+            result = jobs.run_scene_job(plan, None, factor=self.factor_materials)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        return self._finish(context, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        job = context.window_manager.spectral_job
+        if job.running:
+            self.report({"WARNING"}, "A spectral job is already running")
+            return {"CANCELLED"}
+        try:
+            plan = self.plan(context)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        factor = self.factor_materials
+        self._worker = _Worker(lambda cb: jobs.run_scene_job(plan, cb, factor=factor))
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 1000)
+        job.running, job.fraction, job.message = True, 0.0, "starting"
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _cleanup(self, context) -> None:
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        wm.spectral_job.running = False
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+        for area in context.screen.areas if context.screen else ():
+            area.tag_redraw()
+
+    def modal(self, context, event):
+        worker = self._worker
+        if event.type == "ESC" and event.value == "PRESS":
+            worker.cancel.set()
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"} if not worker.done else {"PASS_THROUGH"}
+        job = context.window_manager.spectral_job
+        job.fraction, job.message = worker.fraction, worker.message
+        context.window_manager.progress_update(int(1000 * worker.fraction))
+        if context.workspace is not None:
+            context.workspace.status_text_set(
+                f"{self.bl_label}: {100 * worker.fraction:.0f}% {worker.message} (Esc cancels)")
+        for area in context.screen.areas if context.screen else ():
+            if area.type in {"PROPERTIES", "VIEW_3D"}:
+                area.tag_redraw()
+        if not worker.done:
+            return {"RUNNING_MODAL"}
+        self._cleanup(context)
+        if worker.error is not None:
+            return self._report_failure(worker.error)
+        return self._finish(context, worker.result)
+
+
+class SPECTRAL_OT_factor_material(_SceneJobOperator, bpy.types.Operator):
+    """Factor the active material's spectral BRDF into factor packs and store them"""
+
+    bl_idname = "spectral.factor_material"
+    bl_label = "Factor Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    force: BoolProperty(name="Force", default=False,
+                        description="Factor again even if the stored factors are up to date")
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.active_material is None:
+            cls.poll_message_set("Select an object with an active material")
+            return False
+        return True
+
+    def plan(self, context):
+        material = context.active_object.active_material
+        return scene.plan_scene(context.scene, only=[material], force=self.force)
+
+
+class SPECTRAL_OT_factor_scene(_SceneJobOperator, bpy.types.Operator):
+    """Analyse the scene, build its spectral basis and factor every used, out-of-date material"""
+
+    bl_idname = "spectral.factor_scene"
+    bl_label = "Factor Scene"
+    bl_options = {"REGISTER", "UNDO"}
+
+    force: BoolProperty(name="Force", default=False,
+                        description="Factor every used material, even those up to date")
+
+    def plan(self, context):
+        return scene.plan_scene(context.scene, force=self.force)
+
+
+class SPECTRAL_OT_build_basis(_SceneJobOperator, bpy.types.Operator):
+    """Analyse the scene and build its spectral basis without factoring anything"""
+
+    bl_idname = "spectral.build_basis"
+    bl_label = "Build Spectral Basis"
+    bl_options = {"REGISTER", "UNDO"}
+    factor_materials = False
+
+    def plan(self, context):
+        return scene.plan_scene(context.scene)
+
+
+class SPECTRAL_OT_clear_results(bpy.types.Operator):
+    """Remove stored factor packs (their images and metadata)"""
+
+    bl_idname = "spectral.clear_results"
+    bl_label = "Clear Spectral Results"
+    bl_options = {"REGISTER", "UNDO"}
+
+    scope: EnumProperty(
+        name="Scope", default="ACTIVE",
+        items=[("ACTIVE", "Active material", "The active object's active material"),
+               ("ALL", "All materials", "Every material in the file, and the scene basis")],
+        description="Which results to remove")
+
+    def execute(self, context):
+        if self.scope == "ACTIVE":
+            obj = context.active_object
+            material = obj.active_material if obj is not None else None
+            if material is None:
+                self.report({"ERROR"}, "No active material")
+                return {"CANCELLED"}
+            targets = [material]
+        else:
+            targets = list(bpy.data.materials)
+        cleared = [m.name for m in targets if storage.clear_factored(m)]
+        if self.scope == "ALL":
+            jobs.clear_scene_basis(context.scene)
+        self.report({"INFO"}, f"Cleared {len(cleared)} material(s)"
+                    + (": " + ", ".join(cleared) if cleared else ""))
+        return {"FINISHED"}
+
+
+CLASSES = (
+    SPECTRAL_OT_factor_material,
+    SPECTRAL_OT_factor_scene,
+    SPECTRAL_OT_build_basis,
+    SPECTRAL_OT_clear_results,
+)

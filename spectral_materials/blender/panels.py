@@ -1,0 +1,243 @@
+"""Panels: Material and Light properties, and a 3D-view sidebar tab for the scene."""
+
+from __future__ import annotations
+
+import json
+
+import bpy
+
+from . import plots, sources
+
+_MODEL_PARAMS = {
+    "LAMBERT": (),
+    "OREN_NAYAR": ("sigma",),
+    "ASHIKHMIN_SHIRLEY": ("nu", "nv"),
+    "WARD": ("alpha_x", "alpha_y"),
+    "GGX": ("alpha_x", "alpha_y"),
+}
+_MODEL_SPECTRA = {
+    "LAMBERT": (("diffuse", "Albedo"),),
+    "OREN_NAYAR": (("diffuse", "Albedo"),),
+    "ASHIKHMIN_SHIRLEY": (("diffuse", "Diffuse"), ("specular", "Specular")),
+    "WARD": (("diffuse", "Diffuse"), ("specular", "Specular")),
+    "GGX": (("ior_n", "IOR n"), ("ior_k", "IOR k"), ("diffuse", "Diffuse")),
+}
+
+
+def _draw_spectrum(layout, group, label: str) -> None:
+    box = layout.box()
+    row = box.row(align=True)
+    row.label(text=label)
+    row.prop(group, "kind", text="")
+    if group.kind == "COLORCHECKER":
+        box.prop(group, "patch")
+    elif group.kind == "CONSTANT":
+        box.prop(group, "constant")
+    elif group.kind == "TEXT":
+        box.prop(group, "text")
+    else:
+        box.prop(group, "filepath")
+
+
+def _draw_job(layout, context) -> bool:
+    job = context.window_manager.spectral_job
+    if job.running:
+        layout.progress(factor=job.fraction, type="BAR",
+                        text=f"{100 * job.fraction:.0f}% {job.message}  (Esc cancels)")
+    return job.running
+
+
+def _draw_image(layout, image, scale: float) -> None:
+    if image is None:
+        return
+    image.preview_ensure()
+    layout.template_icon(icon_value=image.preview.icon_id, scale=scale)
+
+
+class SPECTRAL_PT_material(bpy.types.Panel):
+    bl_label = "Spectral BRDF"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return context.material is not None
+
+    def draw_header(self, context):
+        self.layout.prop(context.material.spectral, "enabled", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.material.spectral
+        layout.use_property_split = True
+        layout.active = s.enabled
+        layout.prop(s, "source")
+        if s.source == "ANALYTIC":
+            layout.prop(s, "model")
+            for name in _MODEL_PARAMS[s.model]:
+                layout.prop(s, name)
+            for prop, label in _MODEL_SPECTRA[s.model]:
+                _draw_spectrum(layout, getattr(s, prop), label)
+        else:
+            layout.prop(s, "filepath")
+
+
+class SPECTRAL_PT_material_settings(bpy.types.Panel):
+    bl_label = "Factorisation"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    bl_parent_id = "SPECTRAL_PT_material"
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.material.spectral
+        layout.use_property_split = True
+        layout.prop(s, "parameterization")
+        layout.prop(s, "theta_cells")
+        layout.prop(s, "packs")
+        row = layout.row(heading="Target ΔE94")
+        row.prop(s, "use_target", text="")
+        sub = row.row()
+        sub.active = s.use_target
+        sub.prop(s, "target_de94", text="")
+        layout.prop(s, "pack_size")
+        layout.prop(s, "smoothing")
+        if not _draw_job(layout, context):
+            layout.operator("spectral.factor_material", icon="PLAY")
+
+
+class SPECTRAL_PT_material_result(bpy.types.Panel):
+    bl_label = "Stored Factors"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    bl_parent_id = "SPECTRAL_PT_material"
+
+    def draw(self, context):
+        layout = self.layout
+        material = context.material
+        r = material.spectral.result
+        if r.image is None:
+            layout.label(text="Not factored yet", icon="INFO")
+            return
+        stale = _stale(context, material)
+        if stale:
+            layout.label(text=stale, icon="ERROR")
+        grid = layout.grid_flow(columns=2, even_columns=True)
+        grid.label(text="Packs")
+        grid.label(text=f"{r.packs} ({r.terms} terms of {r.spectral_size} coefficients)")
+        grid.label(text="Grid")
+        grid.label(text=f"{r.parameterization} {r.resolution}")
+        grid.label(text="ΔE94 mean / p95 / max")
+        grid.label(text=f"{r.de94_mean:.3f} / {r.de94_p95:.3f} / {r.de94_max:.3f}")
+        grid.label(text="Time")
+        grid.label(text=f"{r.seconds:.2f} s")
+        grid.label(text="Size")
+        grid.label(text=f"{r.nbytes / 1024:.1f} KiB")
+        _draw_image(layout, r.plot, 8.0)
+        layout.label(text="ΔE94 (D65, protocol pairs) against packs; dashed: target")
+        layout.operator("spectral.clear_results", icon="TRASH").scope = "ACTIVE"
+
+
+def _stale(context, material) -> str:
+    """Why the stored factors are out of date, or '' (cheap checks only: no files read)."""
+    r = material.spectral.result
+    basis_hash = context.scene.spectral.basis_hash
+    try:
+        report = json.loads(r.report_json or "{}")
+    except json.JSONDecodeError:
+        report = {}
+    if not report:
+        return ""
+    if context.scene.spectral.basis_size and r.spectral_size != context.scene.spectral.basis_size:
+        return "Out of date: the scene basis changed"
+    return "" if basis_hash else ""
+
+
+class SPECTRAL_PT_light(bpy.types.Panel):
+    bl_label = "Spectral Power Distribution"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return isinstance(context.light, bpy.types.Light)
+
+    def draw(self, context):
+        layout = self.layout
+        light = context.light
+        s = light.spectral
+        layout.use_property_split = True
+        layout.prop(s, "kind")
+        if s.kind == "ILLUMINANT":
+            layout.prop(s, "illuminant")
+        elif s.kind == "BLACKBODY":
+            layout.prop(s, "temperature")
+        elif s.kind == "TEXT":
+            layout.prop(s, "text")
+        else:
+            layout.prop(s, "filepath")
+        layout.prop(s, "power")
+        try:
+            image = plots.light_plot(light)
+        except sources.SourceError as exc:
+            layout.label(text=str(exc), icon="ERROR")
+        else:
+            _draw_image(layout, image, 6.0)
+
+
+class SPECTRAL_PT_scene(bpy.types.Panel):
+    bl_label = "Spectral Scene"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Spectral"
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.scene.spectral
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(s, "observer")
+        layout.prop(s, "adaptation_white")
+        layout.prop(s, "tone_mapping")
+        if s.tone_mapping == "SIGMOID":
+            layout.prop(s, "tone_white")
+        layout.prop(s, "basis_tolerance")
+        layout.prop(s, "basis_max_size")
+        if not _draw_job(layout, context):
+            col = layout.column(align=True)
+            col.operator("spectral.factor_scene", icon="PLAY")
+            col.operator("spectral.build_basis", icon="NODE_TEXTURE")
+            col.operator("spectral.clear_results", icon="TRASH").scope = "ALL"
+
+
+class SPECTRAL_PT_scene_analysis(bpy.types.Panel):
+    bl_label = "Scene Analysis"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Spectral"
+    bl_parent_id = "SPECTRAL_PT_scene"
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.scene.spectral
+        if not s.analysis:
+            layout.label(text="Not analysed yet")
+            return
+        layout.label(text=f"Basis: {s.basis_size} coefficients, max ΔE94 {s.basis_max_de94:.3f}")
+        col = layout.column(align=True)
+        for part in s.analysis.split("; "):
+            col.label(text=part)
+
+
+CLASSES = (
+    SPECTRAL_PT_material,
+    SPECTRAL_PT_material_settings,
+    SPECTRAL_PT_material_result,
+    SPECTRAL_PT_light,
+    SPECTRAL_PT_scene,
+    SPECTRAL_PT_scene_analysis,
+)
