@@ -151,6 +151,7 @@ def clear_scene_basis(scene) -> None:
     settings.basis_max_de94 = 0.0
     settings.analysis = ""
     settings.analysis_json = ""
+    scene.update_tag()
 
 
 def load_scene_basis(scene) -> LinearModelBasis | None:
@@ -187,6 +188,7 @@ def commit_scene_job(scene, result: SceneJobResult) -> str:
     summary = result.summary()
     scene.spectral.analysis = summary
     scene.spectral.analysis_json = json.dumps(result.analysis(), default=json_default)
+    scene.update_tag()      # so that memfile undo restores the scene's properties too
     return summary
 
 

@@ -158,9 +158,9 @@ def _check_settings(name: str, settings) -> None:
             raise SourceError(f"{name}: target ΔE94 must be in (0, 100], got {target}")
 
 
-def _check_scalars(name: str, model: str, scalars: dict) -> None:
+def _check_scalars(name: str, model: str, scalars: dict, labels: dict) -> None:
     for key, value in scalars.items():
-        _finite(f"{name}: {key}", value)
+        _finite(f"{name}: {labels[key]}", value)
     if model == "oren_nayar" and not 0 <= scalars["sigma"] <= math.pi / 2:
         raise SourceError(f"{name}: Oren–Nayar σ must be in [0, π/2] radians, "
                           f"got {scalars['sigma']}")
@@ -196,7 +196,8 @@ def material_inputs(material) -> MaterialInputs:
         return MaterialInputs(source="file", filepath=path, file_sha256=digest, **common)
     model = MODEL_KEYS[s.model]
     scalars = {key: float(getattr(s, key)) for key in MODEL_SCALARS[model]}
-    _check_scalars(name, model, scalars)
+    labels = {key: f"{s.bl_rna.properties[key].name} ({key})" for key in scalars}
+    _check_scalars(name, model, scalars, labels)
     values = {}
     for param, prop in MODEL_SPECTRA[model].items():
         label = "albedo" if param == "albedo" else prop.replace("_", " ")

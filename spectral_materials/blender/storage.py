@@ -163,6 +163,8 @@ def apply_factored(material, stored: FactoredBRDF, images: tuple, input_hash: st
     result["wavelengths"] = [float(w) for w in stored.wavelengths]
     result["basis_shape"] = [] if stored.basis is None else list(stored.basis.shape)
     material.spectral.enabled = True
+    # Memfile undo re-reads only IDs tagged as changed; property writes alone do not tag.
+    material.update_tag()
     remove_image(old_image)
     remove_image(old_plot)
 
@@ -240,6 +242,7 @@ def clear_factored(material) -> bool:
         setattr(result, prop, 0)
     for prop in ("de94_mean", "de94_p95", "de94_max", "seconds"):
         setattr(result, prop, 0.0)
+    material.update_tag()
     remove_image(image)
     remove_image(plot)
     return had
