@@ -1,0 +1,173 @@
+"""Install the extension zip into a fresh Blender user directory and use it (a subprocess).
+
+``python extension_probe.py ZIP RESULT_JSON``, run by ``test_extension_install.py`` in a
+fresh ``.venv/bin/python`` with ``BLENDER_USER_RESOURCES`` pointing at a temporary
+directory. Before ``import bpy`` it installs a ``sys.meta_path`` finder that lets the
+top-level names the extension bundles (``colour``, ``scipy``, ``imageio``, ``PIL``,
+``typing_extensions``) import only from under that directory, and ``spectral_materials``
+never (the extension imports itself as ``bl_ext.user_default.spectral_materials``): the
+checkout's editable install and the .venv copies are invisible, so whatever runs is the
+installed copy and its wheels. Each stage's outcome goes to RESULT_JSON, which the test
+reads; stages stop at the first failure, whose traceback is recorded.
+"""
+
+from __future__ import annotations
+
+import importlib.abc
+import importlib.machinery
+import json
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+
+REPO = "user_default"
+PKG_ID = "spectral_materials"
+ADDON = f"bl_ext.{REPO}.{PKG_ID}"
+# What the extension bundles as wheels (numpy is Blender's own and stays visible).
+BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions")
+NEVER = ("spectral_materials",)
+
+
+class OnlyUnder(importlib.abc.MetaPathFinder):
+    """Top-level ``BUNDLED`` names import only from sys.path entries under ``root``."""
+
+    def __init__(self, root: Path):
+        self.root = str(root.resolve())
+        self.refused: list[str] = []
+
+    def find_spec(self, fullname, path=None, target=None):
+        if "." in fullname or fullname not in (*BUNDLED, *NEVER):
+            return None  # submodules follow their (already vetted) parent package
+        if fullname in BUNDLED:
+            allowed = [p for p in sys.path if os.path.realpath(p or ".").startswith(self.root)]
+            spec = importlib.machinery.PathFinder.find_spec(fullname, allowed)
+            if spec is not None:
+                return spec
+        self.refused.append(fullname)
+        raise ModuleNotFoundError(
+            f"{fullname} refused by the probe: not under {self.root}", name=fullname
+        )
+
+
+def under(path: str | None, root: Path) -> bool:
+    return path is not None and Path(path).resolve().is_relative_to(root.resolve())
+
+
+def main(zip_path: str, result_path: str) -> int:
+    user = Path(os.environ["BLENDER_USER_RESOURCES"])
+    finder = OnlyUnder(user)
+    sys.meta_path.insert(0, finder)
+    result: dict = {"stage": "start", "zip": zip_path, "user_resources": str(user)}
+    times = result["seconds"] = {}
+
+    def save() -> None:
+        result["refused_imports"] = finder.refused
+        Path(result_path).write_text(json.dumps(result, indent=1, default=str))
+
+    # What the finder hides: the .venv copies a plain import would have found.
+    result["hidden"] = {
+        name: getattr(importlib.machinery.PathFinder.find_spec(name), "origin", None)
+        for name in (*BUNDLED, *NEVER)
+    }
+    # ... and that the finder hides them: nothing is installed yet, so each import fails.
+    result["blocked_before_install"] = {}
+    for name in (*BUNDLED, *NEVER):
+        try:
+            __import__(name)
+        except ModuleNotFoundError:
+            result["blocked_before_install"][name] = True
+        else:
+            result["blocked_before_install"][name] = False
+    finder.refused.clear()
+    try:
+        start = time.perf_counter()
+        result["stage"] = "import bpy"
+        import bpy
+
+        times["import_bpy"] = time.perf_counter() - start
+        extensions = Path(bpy.utils.user_resource("EXTENSIONS"))
+        site = extensions / ".local" / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}"
+        site = site / "site-packages"
+        result.update(extensions_dir=str(extensions), site_packages=str(site))
+        result["repos"] = {r.module: r.directory for r in bpy.context.preferences.extensions.repos}
+        assert under(str(extensions), user), f"extensions dir {extensions} not under {user}"
+
+        result["stage"] = "read_homefile"
+        bpy.ops.wm.read_homefile(use_empty=True)
+
+        result["stage"] = "install"
+        start = time.perf_counter()
+        result["install_result"] = sorted(bpy.ops.extensions.package_install_files(
+            filepath=zip_path, repo=REPO, enable_on_install=True,
+        ))
+        times["install"] = time.perf_counter() - start
+        package_dir = extensions / REPO / PKG_ID
+        result["installed_files"] = sorted(
+            str(p.relative_to(package_dir)) for p in package_dir.rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts
+        ) if package_dir.is_dir() else []
+        result["site_packages_entries"] = sorted(p.name for p in site.iterdir()) \
+            if site.is_dir() else []
+        result["site_on_sys_path"] = str(site) in sys.path
+
+        result["stage"] = "enabled"
+        import addon_utils
+
+        result["addon_in_preferences"] = ADDON in bpy.context.preferences.addons
+        result["addon_check"] = list(addon_utils.check(ADDON))
+        module = sys.modules.get(ADDON)
+        result["addon_file"] = getattr(module, "__file__", None)
+        assert result["addon_in_preferences"] and module is not None, "add-on not enabled"
+
+        result["stage"] = "bundled wheels"
+        # Imported by the add-on itself while enabling (before the probe imports any).
+        result["imported_by_addon"] = {
+            name: getattr(sys.modules[name], "__file__", None)
+            for name in BUNDLED if name in sys.modules
+        }
+        origins = {}
+        for name in BUNDLED:
+            imported = __import__(name)
+            origins[name] = imported.__file__
+        result["bundled_origins"] = origins
+
+        result["stage"] = "operator"
+        cls = getattr(bpy.types, "SPECTRAL_OT_factor_material", None)
+        result["operator_module"] = getattr(cls, "__module__", None)
+        result["operator_registered"] = cls is not None
+        assert cls is not None, "bpy.types.SPECTRAL_OT_factor_material is not registered"
+
+        result["stage"] = "factor"
+        mesh = bpy.data.meshes.new("probe")
+        mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+        obj = bpy.data.objects.new("probe", mesh)
+        bpy.context.scene.collection.objects.link(obj)
+        mat = bpy.data.materials.new("probe")
+        obj.data.materials.append(mat)
+        bpy.context.view_layer.objects.active = obj
+        obj.select_set(True)
+        s = mat.spectral
+        s.source = "ANALYTIC"
+        s.model = "LAMBERT"
+        s.theta_cells = 8
+        s.packs = 1
+        start = time.perf_counter()
+        result["factor_result"] = sorted(bpy.ops.spectral.factor_material())
+        times["factor"] = time.perf_counter() - start
+        result["result_packs"] = mat.spectral.result.packs
+        # Anything the add-on imported lazily during the run came from the wheels too.
+        result["modules_after_factor"] = {
+            name: getattr(sys.modules.get(name), "__file__", None) for name in BUNDLED
+        }
+        result["stage"] = "done"
+    except BaseException:  # noqa: BLE001 - recorded for the test, which reports it
+        result["error"] = traceback.format_exc()
+    finally:
+        save()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(*sys.argv[1:3]))
