@@ -73,13 +73,18 @@ class LinearModelBasis:
 
 
 def light_cmf_spectra(
-    illuminants: Iterable[str | np.ndarray], wavelengths: np.ndarray
+    illuminants: Iterable[str | np.ndarray], wavelengths: np.ndarray, *,
+    observer: str = spectra.OBSERVER,
 ) -> np.ndarray:
-    """Light × CMF products for each illuminant (name or SPD array) → (3·n, L)."""
+    """Light × CMF products for each illuminant (name or SPD array) → (3·n, L).
+
+    Rows ``3i, 3i+1, 3i+2`` are illuminant ``i`` times x̄, ȳ, z̄ of ``observer``
+    (see :func:`spectra.cmfs`; the protocol's 1931 2° by default).
+    """
     from .colour_pipeline import illuminant_spd
 
     wl = spectra.check_wavelengths(wavelengths)
-    cmf = spectra.cmfs(wl)
+    cmf = spectra.cmfs(wl, observer)
     rows = []
     for light in illuminants:
         spd = illuminant_spd(light, wl)

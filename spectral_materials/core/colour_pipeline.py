@@ -41,17 +41,20 @@ def illuminant_spd(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.
 
 
 def xyz_weights(illuminant: str | np.ndarray, wavelengths: np.ndarray,
-                basis: np.ndarray | None = None) -> np.ndarray:
+                basis: np.ndarray | None = None, *,
+                observer: str = spectra.OBSERVER) -> np.ndarray:
     """Weights W (L, 3) with XYZ = Σ_λ f·cosθi·W, normalised as the protocol says.
 
     ``W = k · E(λ) · cmf(λ) · Δλ`` with k chosen so that a white Lambertian
     (f = 1/π) at normal incidence gives Y = 1. With an orthonormal ``basis``
     (L, m) the weights are its coefficients Ψᵀ W (m, 3): the light × CMF side
-    of the factor-pack paper's coefficient dot product (eq. 9).
+    of the factor-pack paper's coefficient dot product (eq. 9). ``observer``
+    picks the CMFs (see :func:`spectra.cmfs`; the protocol's 1931 2° by default);
+    with the 1964 10° observer it is Y₁₀ that the white reflects as 1.
     """
     wl = spectra.check_wavelengths(wavelengths)
     spd = illuminant_spd(illuminant, wl)
-    weights = spd[:, None] * spectra.cmfs(wl) * spectra.sample_weights(wl)[:, None]
+    weights = spd[:, None] * spectra.cmfs(wl, observer) * spectra.sample_weights(wl)[:, None]
     white_y = weights[:, 1].sum() / np.pi
     if not white_y > 0:
         raise ValueError("illuminant has no luminance on this wavelength grid")
@@ -59,9 +62,10 @@ def xyz_weights(illuminant: str | np.ndarray, wavelengths: np.ndarray,
     return weights if basis is None else np.asarray(basis).T @ weights
 
 
-def white_xyz(illuminant: str | np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
+def white_xyz(illuminant: str | np.ndarray, wavelengths: np.ndarray, *,
+              observer: str = spectra.OBSERVER) -> np.ndarray:
     """XYZ of the white Lambertian under the normalised illuminant (Y = 1)."""
-    return xyz_weights(illuminant, wavelengths).sum(axis=0) / np.pi
+    return xyz_weights(illuminant, wavelengths, observer=observer).sum(axis=0) / np.pi
 
 
 def xyz_to_lab(xyz: np.ndarray, white: np.ndarray) -> np.ndarray:

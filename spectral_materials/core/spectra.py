@@ -1,4 +1,4 @@
-"""Spectral data: wavelength grid, CIE 1931 2° CMFs, illuminants, reflectances.
+"""Spectral data: wavelength grid, CIE 1931 2° / 1964 10° CMFs, illuminants, reflectances.
 
 Everything comes from colour-science and is resampled onto the caller's
 wavelength grid by piecewise-linear interpolation (exact at the datasets' own
@@ -7,8 +7,8 @@ dataset's range.
 
 References
 ----------
-CIE 015:2018 Colorimetry, 4th ed. Tables of the 1931 2° observer and the
-standard illuminants, as shipped by colour-science 0.4.6.
+CIE 015:2018 Colorimetry, 4th ed. Tables of the 1931 2° and 1964 10° observers
+and the standard illuminants, as shipped by colour-science 0.4.6.
 """
 
 from __future__ import annotations
@@ -28,7 +28,17 @@ DELTA_LAMBDA_REFERENCE = 5.0
 
 ILLUMINANT_NAMES = ("A", "D50", "D65") + tuple(f"FL{i}" for i in range(1, 13))
 
+#: The protocol's observer, the default everywhere.
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
+
+#: The supplementary (large-field) observer.
+OBSERVER_1964 = "CIE 1964 10 Degree Standard Observer"
+
+#: The observers :func:`cmfs` knows, by their colour-science names.
+OBSERVER_NAMES = (OBSERVER, OBSERVER_1964)
+
+#: Short aliases (lower case) of :data:`OBSERVER_NAMES`.
+OBSERVER_ALIASES = {"1931": OBSERVER, "1964": OBSERVER_1964}
 
 COLORCHECKER = "ColorChecker N Ohta"
 
@@ -108,18 +118,48 @@ def spectrum_values(spectrum: SpectrumLike, wavelengths: np.ndarray) -> np.ndarr
     return out
 
 
+def observer_name(observer: str = OBSERVER) -> str:
+    """The colour-science name of an observer given by name or short alias.
+
+    Accepts :data:`OBSERVER_NAMES` (case-insensitive) and the aliases ``"1931"``
+    and ``"1964"``; anything else raises a ValueError listing the choices.
+    """
+    key = str(observer).strip().lower() if isinstance(observer, str) else None
+    for name in OBSERVER_NAMES:
+        if key == name.lower():
+            return name
+    if key in OBSERVER_ALIASES:
+        return OBSERVER_ALIASES[key]
+    choices = ", ".join(repr(n) for n in (*OBSERVER_NAMES, *OBSERVER_ALIASES))
+    raise ValueError(f"unknown observer {observer!r}; choose one of {choices}")
+
+
 @lru_cache(maxsize=32)
-def _cmfs_cached(key: tuple) -> np.ndarray:
-    cmfs = colour.MSDS_CMFS[OBSERVER]
+def _cmfs_cached(key: tuple, observer: str) -> np.ndarray:
+    cmfs = colour.MSDS_CMFS[observer]
     # The observer sees nothing outside its tabulated 360–830 nm.
     out = _resample(cmfs.wavelengths, cmfs.values, np.asarray(key), outside=0.0)
     out.setflags(write=False)
     return out
 
 
-def cmfs(wavelengths: np.ndarray = WAVELENGTHS_REFERENCE) -> np.ndarray:
-    """CIE 1931 2° colour matching functions x̄, ȳ, z̄ at ``wavelengths`` → (L, 3)."""
-    return _cmfs_cached(tuple(check_wavelengths(wavelengths).tolist()))
+def cmfs(wavelengths: np.ndarray = WAVELENGTHS_REFERENCE, observer: str = OBSERVER) -> np.ndarray:
+    """Colour matching functions x̄, ȳ, z̄ at ``wavelengths`` → (L, 3), read-only.
+
+    Parameters
+    ----------
+    wavelengths : ndarray (L,)
+        nm.
+    observer : str
+        ``"CIE 1931 2 Degree Standard Observer"`` (the protocol's, default) or
+        ``"CIE 1964 10 Degree Standard Observer"``; also ``"1931"``, ``"1964"``.
+
+    Returns
+    -------
+    ndarray (L, 3)
+        Cached per grid and observer: do not modify (it is marked read-only).
+    """
+    return _cmfs_cached(tuple(check_wavelengths(wavelengths).tolist()), observer_name(observer))
 
 
 def illuminant(name: str, wavelengths: np.ndarray = WAVELENGTHS_REFERENCE) -> np.ndarray:

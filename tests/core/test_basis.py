@@ -49,6 +49,14 @@ class TestLightCmfSpectra:
         out = light_cmf_spectra([spd], WL)
         np.testing.assert_array_equal(out, (spd[:, None] * spectra.cmfs(WL)).T)
 
+    def test_observer(self, lights):
+        np.testing.assert_array_equal(light_cmf_spectra(LIGHTS, WL, observer="1931"), lights)
+        out = light_cmf_spectra(["FL2"], WL, observer="1964")
+        cmf = spectra.cmfs(WL, observer="CIE 1964 10 Degree Standard Observer")
+        np.testing.assert_array_equal(out, (spectra.illuminant("FL2", WL)[:, None] * cmf).T)
+        with pytest.raises(ValueError, match="unknown observer"):
+            light_cmf_spectra(["FL2"], WL, observer="2015")
+
     def test_bad_input(self):
         with pytest.raises(ValueError, match="unknown illuminant"):
             light_cmf_spectra(["D75"], WL)

@@ -35,6 +35,13 @@ def lambertian_white_xyz(weights: np.ndarray) -> np.ndarray:
     return (f * 1.0) @ weights
 
 
+def raw_weights(name: str, observer: str) -> np.ndarray:
+    """E·cmf·Δλ from colour-science's own tables (un-normalised)."""
+    cmf = colour.MSDS_CMFS[observer]
+    index = np.searchsorted(cmf.wavelengths, WL)
+    return spectra.illuminant(name, WL)[:, None] * cmf.values[index] * 5.0
+
+
 def cie94_by_hand(lab_1, lab_2) -> float:
     """CIE 1994 colour difference, graphic-arts weights, written out (CIE 116-1995).
 
@@ -115,6 +122,36 @@ class TestXyzWeights:
         np.testing.assert_allclose(colour.XYZ_to_xy(xyz), [0.3127, 0.3290], atol=1e-3)
         np.testing.assert_allclose(xyz, colour.xy_to_XYZ(CCS["D65"]), atol=1e-3)
         np.testing.assert_allclose(xyz, DISPLAY_WHITE_XYZ, atol=1e-3)
+
+    @pytest.mark.parametrize("name", ["D65", "A", "FL2", "FL11"])
+    def test_white_chromaticity_1964(self, name):
+        # The 10° observer: Y₁₀ = 1 and colour's tabulated 1964 10° chromaticities.
+        observer = "CIE 1964 10 Degree Standard Observer"
+        weights = xyz_weights(name, WL, observer=observer)
+        xyz = white_xyz(name, WL, observer="1964")
+        assert xyz[1] == pytest.approx(1.0, abs=1e-12)
+        np.testing.assert_allclose(lambertian_white_xyz(weights), xyz, rtol=1e-12)
+        np.testing.assert_allclose(colour.XYZ_to_xy(xyz),
+                                   colour.CCS_ILLUMINANTS[observer][name], atol=1e-3)
+        raw = raw_weights(name, observer)
+        k = weights[raw > 0] / raw[raw > 0]
+        np.testing.assert_allclose(k, k[0], rtol=1e-12)
+
+    def test_observer_default_unchanged(self):
+        np.testing.assert_array_equal(
+            xyz_weights("FL2", WL), xyz_weights("FL2", WL, observer=spectra.OBSERVER))
+        np.testing.assert_array_equal(white_xyz("A", WL), white_xyz("A", WL, observer="1931"))
+        assert not np.allclose(white_xyz("A", WL), white_xyz("A", WL, observer="1964"))
+        basis = np.linalg.qr(np.random.default_rng(0).normal(size=(WL.size, 5)))[0]
+        np.testing.assert_allclose(xyz_weights("D65", WL, basis, observer="1964"),
+                                   basis.T @ xyz_weights("D65", WL, observer="1964"),
+                                   rtol=1e-12)
+
+    def test_unknown_observer(self):
+        with pytest.raises(ValueError, match="unknown observer.*1964"):
+            xyz_weights("D65", WL, observer="CIE 2015 2 Degree Standard Observer")
+        with pytest.raises(ValueError, match="unknown observer"):
+            white_xyz("D65", WL, observer="10")
 
     def test_no_luminance(self):
         with pytest.raises(ValueError, match="no luminance"):

@@ -28,6 +28,7 @@ from spectral_materials.core.spectra import (
 )
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
+OBSERVER_1964 = "CIE 1964 10 Degree Standard Observer"
 COLORCHECKER = "ColorChecker N Ohta"
 WL10 = np.arange(380.0, 781.0, 10.0)
 
@@ -171,6 +172,54 @@ class TestCmfs:
                                    rtol=1e-12)
         # The observer sees nothing beyond the dataset's 360..830 nm.
         np.testing.assert_array_equal(cmfs([300.0, 900.0]), np.zeros((2, 3)))
+
+
+class TestObservers:
+    """:func:`cmfs` with ``observer``: the 1931 2° (default) and 1964 10° observers."""
+
+    def test_1964_y_bar_at_555(self):
+        reference = colour.MSDS_CMFS[OBSERVER_1964]
+        expected = table(reference, [555.0])[0]
+        out = cmfs([555.0], observer=OBSERVER_1964)[0]
+        np.testing.assert_array_equal(out, expected)
+        # CIE 1964 10°: ȳ₁₀(555 nm) = 0.99911, x̄₁₀ = 0.61605 (CIE 015 table).
+        assert out[1] == pytest.approx(0.99911, abs=1e-6)
+        assert out[0] == pytest.approx(0.616053, abs=1e-6)
+
+    def test_1964_reference_grid(self):
+        expected = table(colour.MSDS_CMFS[OBSERVER_1964], WAVELENGTHS_REFERENCE)
+        np.testing.assert_array_equal(cmfs(WAVELENGTHS_REFERENCE, OBSERVER_1964), expected)
+        assert not np.array_equal(expected, cmfs())
+
+    @pytest.mark.parametrize(
+        ("alias", "name"),
+        [("1931", OBSERVER), ("1964", OBSERVER_1964), (OBSERVER.upper(), OBSERVER),
+         (f" {OBSERVER_1964.lower()} ", OBSERVER_1964)],
+    )
+    def test_aliases(self, alias, name):
+        assert spectra.observer_name(alias) == name
+        # Aliases share the cache entry of the full name.
+        assert cmfs(WL10, observer=alias) is cmfs(WL10, observer=name)
+
+    def test_default_unchanged(self):
+        assert spectra.observer_name() == OBSERVER
+        np.testing.assert_array_equal(cmfs(), table(colour.MSDS_CMFS[OBSERVER],
+                                                    WAVELENGTHS_REFERENCE))
+        assert cmfs() is cmfs(observer=OBSERVER)
+        assert spectra.OBSERVER_NAMES == (OBSERVER, OBSERVER_1964)
+
+    def test_cache_per_observer(self):
+        a = cmfs(WL10, observer="1964")
+        assert not a.flags.writeable
+        assert cmfs(WL10, observer="1964") is a
+        assert cmfs(WL10) is not a
+
+    @pytest.mark.parametrize("bad", ["CIE 2015 2 Degree Standard Observer", "2", "", None, 1931])
+    def test_unknown(self, bad):
+        with pytest.raises(ValueError, match="unknown observer") as info:
+            cmfs(WL10, observer=bad)
+        for choice in (OBSERVER, OBSERVER_1964, "'1931'", "'1964'"):
+            assert choice in str(info.value)
 
 
 class TestIlluminant:
