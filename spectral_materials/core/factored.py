@@ -94,7 +94,7 @@ class FactoredBRDF:
             for (i0, i1, w), f in zip(lookups, self.factors):
                 f = f.astype(np.float64)
                 prod *= (1.0 - w)[:, None] * f[i0] + w[:, None] * f[i1]
-            out = prod @ self.spectral.astype(np.float64).T
+            out = _contract(prod, self.spectral)
         else:
             out = self._separable_coefficients(lookups)
         lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
@@ -116,7 +116,7 @@ class FactoredBRDF:
         return multilinear(table, shape, lookups)
 
     def _to_wavelengths(self, coefficients: np.ndarray) -> np.ndarray:
-        return coefficients if self.basis is None else coefficients @ self.basis.T
+        return coefficients if self.basis is None else _contract(coefficients, self.basis)
 
     def evaluate_cosine_weighted(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """``f·cosθi`` (N, L) at ``.wavelengths``; 0 below the horizon, clamped at 0.
@@ -303,6 +303,20 @@ class FactoredBRDF:
         for name, a in arrays.items():
             if not np.isfinite(a).all():
                 raise ValueError(f"{name} has {int((~np.isfinite(a)).sum())} non-finite values")
+
+
+def _contract(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b.T`` for a (N, R) and b (S, R), summed term by term in a fixed order.
+
+    A BLAS product may sum in an order that depends on threads and memory
+    alignment, so the same factors could evaluate differently in the last bit
+    from one process to the next; stored factors must reload bit-identical.
+    """
+    b = np.asarray(b, dtype=np.float64)
+    out = np.zeros((a.shape[0], b.shape[0]))
+    for r in range(a.shape[1]):
+        out += a[:, r, None] * b[None, :, r]
+    return out
 
 
 def json_default(value):

@@ -126,7 +126,9 @@ def spherical(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     clipping for |z| slightly above 1. φ = 0 where x = y = 0.
     """
     v = np.asarray(v, dtype=np.float64)
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    # Contiguous copies: NumPy's SIMD loops on strided views round the last bit
+    # differently depending on memory alignment, so results varied between runs.
+    x, y, z = (np.ascontiguousarray(v[..., k]) for k in range(3))
     rho = np.hypot(x, y)
     theta = np.arctan2(rho, z)
     phi = np.where(rho > 0.0, _wrap_2pi(np.arctan2(y, x)), 0.0)

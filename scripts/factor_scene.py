@@ -1,0 +1,166 @@
+#!/usr/bin/env python3
+"""Analyse and factor a .blend's spectral materials headless, with a JSON report.
+
+Either inside Blender::
+
+    blender --background scene.blend --python scripts/factor_scene.py -- [options]
+
+or with the ``bpy`` module (Python 3.11)::
+
+    python scripts/factor_scene.py scene.blend [options]
+
+Exit status: 0 done, 1 an error (the message names the problem; the file is not
+saved), 2 bad arguments, 130 interrupted (Ctrl-C; nothing stored).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _parse(argv: list[str], inside_blender: bool) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="factor_scene.py",
+        description="Scene analysis and factorisation of a .blend's spectral materials.")
+    if not inside_blender:
+        parser.add_argument("blend", type=Path, help=".blend file to open")
+    parser.add_argument("--materials", nargs="+", metavar="NAME",
+                        help="factor only these materials (the basis still serves the scene)")
+    parser.add_argument("--force", action="store_true",
+                        help="factor even materials whose stored factors are up to date")
+    parser.add_argument("--basis-only", action="store_true",
+                        help="analyse the scene and build its basis; factor nothing")
+    parser.add_argument("--tolerance", type=float, metavar="DE94",
+                        help="basis tolerance (ΔE94) instead of the scene's setting")
+    parser.add_argument("--scene", help="scene name (default: the file's active scene)")
+    parser.add_argument("--report", type=Path, metavar="JSON", help="write the report here")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--save", action="store_true", help="save the .blend in place")
+    group.add_argument("--output", type=Path, metavar="BLEND", help="save to this .blend")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parser.parse_args(argv)
+
+
+def _addon():
+    """The registered add-on's ``blender`` package (an installed extension or this repo)."""
+    import importlib
+
+    import bpy
+
+    if hasattr(bpy.types, "SPECTRAL_OT_factor_scene"):
+        module = bpy.types.SPECTRAL_OT_factor_scene.__module__     # …blender.operators
+        return importlib.import_module(module.rsplit(".", 1)[0])
+    sys.path.insert(0, str(REPO))
+    from spectral_materials import blender as addon
+
+    addon.register()
+    return addon
+
+
+def run(args: argparse.Namespace, inside_blender: bool) -> int:
+    import bpy
+
+    if not inside_blender:
+        if not args.blend.is_file():
+            print(f"factor_scene: error: {args.blend} does not exist", file=sys.stderr)
+            return 1
+        addon = _addon()
+        bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+    else:
+        addon = _addon()
+    from importlib import import_module
+
+    jobs = import_module(addon.__name__ + ".jobs")
+    core = import_module(addon.__name__.rsplit(".", 1)[0] + ".core")
+    progress_module = import_module(core.__name__ + ".progress")
+
+    scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
+    if scene is None:
+        print(f"factor_scene: error: no scene named {args.scene!r}", file=sys.stderr)
+        return 1
+    if args.save and not bpy.data.filepath:
+        print("factor_scene: error: --save needs a file; use --output", file=sys.stderr)
+        return 1
+    if args.tolerance is not None:
+        scene.spectral.basis_tolerance = args.tolerance
+    only = None
+    if args.materials:
+        missing = [name for name in args.materials if name not in bpy.data.materials]
+        if missing:
+            print(f"factor_scene: error: no material named {', '.join(missing)}",
+                  file=sys.stderr)
+            return 1
+        only = [bpy.data.materials[name] for name in args.materials]
+
+    progress = progress_module.TerminalProgress() if not args.quiet else None
+
+    def interrupt(_signum, _frame):
+        if progress is not None:
+            progress.interrupted = True
+        else:
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, interrupt)
+    start = time.perf_counter()
+    try:
+        result = jobs.factor_scene(scene, progress, only=only, force=args.force,
+                                   factor=not args.basis_only)
+    except core.Cancelled:
+        print("\nfactor_scene: interrupted; nothing was stored", file=sys.stderr)
+        return 130
+    except (ValueError, OSError) as exc:
+        print(f"\nfactor_scene: error: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    analysis = result.analysis()
+    analysis["file"] = bpy.data.filepath
+    analysis["scene"] = scene.name
+    analysis["wall_seconds"] = time.perf_counter() - start
+    print(analysis["summary"])
+    for name, row in analysis["factored"].items():
+        de = row["de94"]
+        print(f"  {name}: {row['packs']} packs, ΔE94 mean {de['mean']:.3f} p95 {de['p95']:.3f} "
+              f"max {de['max']:.3f}, {row['seconds']:.1f} s, {row['bytes'] / 1024:.1f} KiB")
+    if args.report:
+        args.report.parent.mkdir(parents=True, exist_ok=True)
+        args.report.write_text(json.dumps(analysis, indent=2, default=str))
+    if args.save:
+        bpy.ops.wm.save_mainfile()
+    elif args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        bpy.ops.wm.save_as_mainfile(filepath=str(args.output.resolve()), copy=True)
+    return 0
+
+
+def main() -> int:
+    try:
+        import bpy
+    except ImportError:
+        print("factor_scene: error: needs Blender or the bpy module (pip install bpy==5.0.1)",
+              file=sys.stderr)
+        return 1
+    # The bpy module has no Blender binary; a script run by Blender itself does.
+    inside_blender = bool(bpy.app.binary_path) and "--python" in " ".join(sys.argv)
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    args = _parse(argv, inside_blender)
+    return run(args, inside_blender)
+
+
+if __name__ == "__main__":
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    if "bpy" in sys.modules and sys.modules["bpy"].app.background and "--" in sys.argv:
+        # Inside Blender, sys.exit from a --python script does not set the exit status.
+        import os
+
+        os._exit(code)
+    sys.exit(code)
