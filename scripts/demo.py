@@ -198,7 +198,7 @@ def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
         + (f"; left out: {', '.join(analysis['lights_left_out'])}"
            if analysis["lights_left_out"] else ""),
         f"- Spectral basis: **{basis['size']} coefficients** (default {basis['full_size']}) "
-        f"for tolerance ΔE94 ≤ {basis['tolerance_de94']}"
+        f"for tolerance ΔE94 ≤ {basis['tolerance_de94']:.3g}"
         f"; worst light × material pair {basis['max_de94']:.4f} "
         f"({' × '.join(basis['worst_pair'])}). Factoring on all 81 wavelength samples "
         f"would store {81 / basis['size']:.1f}× more spectral data per term.",

@@ -182,7 +182,8 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
                            description="Rank-one terms per pack; 4 fill one RGBA texel")
     smoothing: IntProperty(name="Smoothing", default=0, soft_min=0, soft_max=9,
                            description="Moving-average width on the angular factors; 0 = off")
-    result: PointerProperty(type=SPECTRAL_PG_result)
+    result: PointerProperty(type=SPECTRAL_PG_result, name="Result",
+                            description="Stored factors and their measured figures")
 
 
 class SPECTRAL_PG_light(bpy.types.PropertyGroup):
