@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The main job (until the Blender add-on lands): the factor benchmark of the paper's Figure 3.
+# The factor benchmark of the paper's Figure 3 (the main job is scripts/demo).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh

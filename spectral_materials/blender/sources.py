@@ -45,6 +45,9 @@ MODEL_SCALARS = {
     "ward": ("alpha_x", "alpha_y"),
     "ggx": ("alpha_x", "alpha_y"),
 }
+#: Models with a specular lobe: "Automatic" factors them in half/difference angles, which
+#: align the lobe with the grid (the paper's choice for glossy BRDFs).
+GLOSSY_MODELS = ("ashikhmin_shirley", "ward", "ggx")
 # Range the spectra of each role must lie in (checked before the model sees them).
 _SPECTRUM_RANGE = {"albedo": (0.0, 1.0), "diffuse": (0.0, 1.0), "specular": (0.0, 1.0),
                    "ior_n": (1e-6, 100.0), "ior_k": (0.0, 100.0)}
@@ -178,7 +181,11 @@ def material_inputs(material) -> MaterialInputs:
     s = material.spectral
     name = f"Material '{material.name}'"
     _check_settings(name, s)
-    common = dict(name=material.name, parameterization=PARAMETERIZATION_KEYS[s.parameterization],
+    parameterization = PARAMETERIZATION_KEYS[s.parameterization]
+    if s.parameterization == "AUTO" and s.source == "ANALYTIC" and \
+            MODEL_KEYS[s.model] in GLOSSY_MODELS:
+        parameterization = "hd"
+    common = dict(name=material.name, parameterization=parameterization,
                   theta_cells=int(s.theta_cells), packs=int(s.packs),
                   target_de94=float(s.target_de94) if s.use_target else None,
                   pack_size=int(s.pack_size), smoothing=int(s.smoothing))
