@@ -35,7 +35,7 @@ MATERIALS = {
     "Red clay": ("OREN_NAYAR", {"sigma": 0.52}, "15", None, 2),
     "Blue felt": ("OREN_NAYAR", {"sigma": 0.3}, "13", None, 2),
     "Orange gloss": ("ASHIKHMIN_SHIRLEY", {"nu": 32.0, "nv": 32.0}, "12", 0.05, 8),
-    "Teal brushed": ("ASHIKHMIN_SHIRLEY", {"nu": 8.0, "nv": 64.0}, "6", 0.05, 8),
+    "Teal brushed": ("ASHIKHMIN_SHIRLEY", {"nu": 8.0, "nv": 64.0}, "6", 0.05, 16),
 }
 
 
@@ -241,8 +241,8 @@ def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "out")
-    parser.add_argument("--theta-cells", type=int, default=32,
-                        help="θ cells per 90° for every material (default 32)")
+    parser.add_argument("--theta-cells", type=int, default=64,
+                        help="θ cells per 90° for every material (default 64)")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args()
     start = time.perf_counter()

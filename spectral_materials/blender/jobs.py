@@ -82,11 +82,12 @@ class SceneJobResult:
 
 
 def factor_options(inputs: sources.MaterialInputs, brdf) -> FactorOptions:
-    from ..core.factor import resolve_parameterization
+    from ..core.factor import is_isotropic, resolve_parameterization
 
-    param, isotropic = resolve_parameterization(brdf, inputs.parameterization, None,
-                                                sources.WAVELENGTHS)
-    resolution = sources.resolution_for(inputs.parameterization, isotropic, inputs.theta_cells)
+    isotropic = is_isotropic(brdf, sources.WAVELENGTHS)
+    name = sources.resolve_auto(inputs.parameterization, isotropic)
+    param, isotropic = resolve_parameterization(brdf, name, isotropic, sources.WAVELENGTHS)
+    resolution = sources.resolution_for(name, isotropic, inputs.theta_cells)
     return FactorOptions(parameterization=param.name, resolution=resolution,
                          isotropic=isotropic, packs=inputs.packs, target_de94=inputs.target_de94,
                          pack_size=inputs.pack_size, smoothing=inputs.smoothing)

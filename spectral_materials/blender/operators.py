@@ -115,8 +115,10 @@ class _SceneJobOperator:
         worker = self._worker
         if event.type == "ESC" and event.value == "PRESS":
             worker.cancel.set()
+            return {"RUNNING_MODAL"}
         if event.type != "TIMER":
-            return {"RUNNING_MODAL"} if not worker.done else {"PASS_THROUGH"}
+            # The job works on a snapshot, so the user may go on working meanwhile.
+            return {"PASS_THROUGH"}
         job = context.window_manager.spectral_job
         job.fraction, job.message = worker.fraction, worker.message
         context.window_manager.progress_update(int(1000 * worker.fraction))

@@ -34,9 +34,9 @@ MODEL_KEYS = {"LAMBERT": "lambert", "OREN_NAYAR": "oren_nayar",
               "ASHIKHMIN_SHIRLEY": "ashikhmin_shirley", "WARD": "ward", "GGX": "ggx"}
 
 PARAMETERIZATION_ITEMS = [
-    ("AUTO", "Automatic", "Half/difference angles for glossy models (Ashikhmin–Shirley, Ward, "
-     "GGX), input/output angles otherwise; the isotropic 3-axis layout when the BRDF is "
-     "isotropic"),
+    ("AUTO", "Automatic", "Half/difference angles for anisotropic glossy models "
+     "(Ashikhmin–Shirley, Ward, GGX), input/output angles otherwise; the isotropic 3-axis "
+     "layout when the BRDF is isotropic"),
     ("IO", "Input/output angles", "(θi, φi, θo, φo); (θi, φo−φi, θo) when isotropic"),
     ("HD", "Half/difference", "Rusinkiewicz (θh, φh, θd, φd), θh square-root warped; "
      "best for sharp highlights"),

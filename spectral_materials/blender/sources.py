@@ -45,9 +45,11 @@ MODEL_SCALARS = {
     "ward": ("alpha_x", "alpha_y"),
     "ggx": ("alpha_x", "alpha_y"),
 }
-#: Models with a specular lobe: "Automatic" factors them in half/difference angles, which
-#: align the lobe with the grid (the paper's choice for glossy BRDFs).
+#: Models with a specular lobe. "Automatic" factors them, when anisotropic, in
+#: half/difference angles, which align the lobe with the grid (the paper's case (c));
+#: isotropic ones stay in the 3-axis input/output layout, which measured better here.
 GLOSSY_MODELS = ("ashikhmin_shirley", "ward", "ggx")
+AUTO_GLOSSY = "auto_glossy"
 # Range the spectra of each role must lie in (checked before the model sees them).
 _SPECTRUM_RANGE = {"albedo": (0.0, 1.0), "diffuse": (0.0, 1.0), "specular": (0.0, 1.0),
                    "ior_n": (1e-6, 100.0), "ior_k": (0.0, 100.0)}
@@ -136,6 +138,13 @@ def spectrum_from_source(group, owner: str, label: str) -> np.ndarray:
         raise SourceError(f"{what}: {exc}") from None
 
 
+def resolve_auto(parameterization: str, isotropic: bool) -> str:
+    """The parameterisation "Automatic" stands for, once isotropy is known."""
+    if parameterization == AUTO_GLOSSY:
+        return "io" if isotropic else "hd"
+    return parameterization
+
+
 def resolution_for(parameterization: str, isotropic: bool, theta_cells: int) -> tuple[int, ...]:
     """Scale the parameterisation's default grid so that θ has ``theta_cells`` cells per 90°."""
     param = get_parameterization(parameterization, isotropic)
@@ -184,7 +193,7 @@ def material_inputs(material) -> MaterialInputs:
     parameterization = PARAMETERIZATION_KEYS[s.parameterization]
     if s.parameterization == "AUTO" and s.source == "ANALYTIC" and \
             MODEL_KEYS[s.model] in GLOSSY_MODELS:
-        parameterization = "hd"
+        parameterization = AUTO_GLOSSY
     common = dict(name=material.name, parameterization=parameterization,
                   theta_cells=int(s.theta_cells), packs=int(s.packs),
                   target_de94=float(s.target_de94) if s.use_target else None,
