@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import json
-
 import bpy
 
-from . import plots, sources
+from . import jobs, plots, sources
 
 _MODEL_PARAMS = {
     "LAMBERT": (),
@@ -142,18 +140,23 @@ class SPECTRAL_PT_material_result(bpy.types.Panel):
 
 
 def _stale(context, material) -> str:
-    """Why the stored factors are out of date, or '' (cheap checks only: no files read)."""
-    r = material.spectral.result
-    basis_hash = context.scene.spectral.basis_hash
-    try:
-        report = json.loads(r.report_json or "{}")
-    except json.JSONDecodeError:
-        report = {}
-    if not report:
+    """Why the stored factors are out of date, or ''.
+
+    Analytic sources are re-hashed on every redraw (cheap); data files are not read
+    here, since hashing a large table on each redraw would stall the UI.
+    """
+    if material.spectral.source != "ANALYTIC":
         return ""
-    if context.scene.spectral.basis_size and r.spectral_size != context.scene.spectral.basis_size:
-        return "Out of date: the scene basis changed"
-    return "" if basis_hash else ""
+    try:
+        inputs = sources.material_inputs(material)
+    except sources.SourceError as exc:
+        return str(exc)
+    basis = jobs.load_scene_basis(context.scene)
+    if basis is None:
+        return "Out of date: the scene has no spectral basis"
+    if sources.input_hash(inputs, basis.vectors) != material.spectral.result.input_hash:
+        return "Out of date: inputs or the scene basis changed; factor again"
+    return ""
 
 
 class SPECTRAL_PT_light(bpy.types.Panel):

@@ -98,3 +98,15 @@ def test_light_spd_errors_name_the_light(clean_scene):
     light.spectral.temperature = float("nan")
     with pytest.raises(sources.SourceError, match="temperature"):
         sources.light_spd(light)
+
+
+def test_panel_staleness_check(clean_scene):
+    from spectral_materials.blender import panels
+
+    material = spectral_material()
+    assert bpy.ops.spectral.factor_material() == {"FINISHED"}
+    assert panels._stale(bpy.context, material) == ""
+    material.spectral.sigma = 0.6
+    assert "Out of date" in panels._stale(bpy.context, material)
+    material.spectral.sigma = -1.0
+    assert "σ must be in" in panels._stale(bpy.context, material)
