@@ -194,3 +194,20 @@ def test_build_basis_factors_nothing(clean_scene):
     assert bpy.context.scene.spectral.basis_size >= 1
     assert material.spectral.result.image is None
     assert jobs.load_scene_basis(bpy.context.scene).vectors.shape[0] == 81
+
+
+def test_factor_a_tabulated_data_file(clean_scene, tmp_path):
+    from spectral_materials.core import models, spectra
+    from spectral_materials.core.formats.tabulated import tabulate_to_file
+
+    brdf = models.OrenNayar(albedo=spectra.colorchecker_spectrum(12), sigma=0.4)
+    path = tabulate_to_file(brdf, tmp_path / "felt.npz", "io_iso", resolution=(12, 24, 12))
+    material = spectral_material()
+    material.spectral.source = "FILE"
+    material.spectral.filepath = str(path)
+    assert _factor() == {"FINISHED"}
+    r = material.spectral.result
+    assert r.packs == 2 and r.de94_mean < 1.0
+    digest = r.input_hash
+    path.write_bytes(path.read_bytes())          # same contents: still up to date
+    assert _factor() == {"FINISHED"} and material.spectral.result.input_hash == digest
