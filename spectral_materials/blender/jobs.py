@@ -22,6 +22,7 @@ import numpy as np
 
 from ..core import scene_basis
 from ..core.basis import LinearModelBasis
+from ..core.factor import is_isotropic, resolve_parameterization
 from ..core.factored import json_default
 from ..core.material_job import FactorOptions, MaterialJobResult, factor_material
 from ..core.progress import ProgressCallback, report, scaled
@@ -81,10 +82,7 @@ class SceneJobResult:
         }
 
 
-def factor_options(inputs: sources.MaterialInputs, brdf) -> FactorOptions:
-    from ..core.factor import is_isotropic, resolve_parameterization
-
-    isotropic = is_isotropic(brdf, sources.WAVELENGTHS)
+def factor_options(inputs: sources.MaterialInputs, brdf, isotropic: bool) -> FactorOptions:
     name = sources.resolve_auto(inputs.parameterization, isotropic)
     param, isotropic = resolve_parameterization(brdf, name, isotropic, sources.WAVELENGTHS)
     resolution = sources.resolution_for(name, isotropic, inputs.theta_cells)
@@ -98,11 +96,12 @@ def run_scene_job(plan: ScenePlan, callback: ProgressCallback | None = None, *,
     """Choose the scene basis and factor the stale target materials (no ``bpy``)."""
     start = time.perf_counter()
     names = list(plan.materials)
-    brdfs, spectra_by_material = {}, {}
+    brdfs, isotropic, spectra_by_material = {}, {}, {}
     for i, name in enumerate(names):
         report(callback, 0.1 * i / len(names), f"sampling spectra of {name}")
         brdfs[name] = plan.materials[name].brdf()
-        spectra_by_material[name] = sources.sampled_spectra(plan.materials[name], brdfs[name])
+        isotropic[name] = is_isotropic(brdfs[name], sources.WAVELENGTHS)
+        spectra_by_material[name] = sources.sampled_spectra(brdfs[name], isotropic[name])
     report(callback, 0.1, "choosing the spectral basis")
     choice = scene_basis.choose_scene_basis(
         spectra_by_material, plan.lights, sources.WAVELENGTHS,
@@ -123,7 +122,7 @@ def run_scene_job(plan: ScenePlan, callback: ProgressCallback | None = None, *,
                          0.15 + 0.85 * (i + 1) / len(stale))
             labelled = None if sub is None else (
                 lambda f, m, name=name, sub=sub: sub(f, f"{name}: {m}"))
-            options = factor_options(plan.materials[name], brdfs[name])
+            options = factor_options(plan.materials[name], brdfs[name], isotropic[name])
             job = factor_material(brdfs[name], basis, options, labelled)
             result.factored[name] = (job, digest)
     result.seconds = time.perf_counter() - start
@@ -138,8 +137,6 @@ def store_scene_basis(scene, basis: LinearModelBasis, max_de94: float) -> None:
     settings["basis_wavelengths"] = [float(w) for w in basis.wavelengths]
     settings.basis_size = vectors.shape[1]
     settings.basis_max_de94 = float(max_de94)
-    settings.basis_hash = sources.input_hash(sources.MaterialInputs(name="", source="basis"),
-                                             vectors)
 
 
 def clear_scene_basis(scene) -> None:
@@ -148,7 +145,6 @@ def clear_scene_basis(scene) -> None:
         if key in settings:
             del settings[key]
     settings.basis_size = 0
-    settings.basis_hash = ""
     settings.basis_max_de94 = 0.0
     settings.analysis = ""
     settings.analysis_json = ""

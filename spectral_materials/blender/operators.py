@@ -15,10 +15,10 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty
 
 from ..core.errors import Cancelled
-from . import jobs, scene, sources, storage
+from . import jobs, scene, storage
 
-_EXPECTED = (sources.SourceError, scene.SceneError, storage.StorageError, ValueError,
-             OSError)
+# SourceError, SceneError and StorageError are ValueErrors: bad input, said plainly.
+_EXPECTED = (ValueError, OSError)
 
 
 class _Worker:

@@ -5,21 +5,7 @@ from __future__ import annotations
 import bpy
 
 from . import jobs, plots, sources
-
-_MODEL_PARAMS = {
-    "LAMBERT": (),
-    "OREN_NAYAR": ("sigma",),
-    "ASHIKHMIN_SHIRLEY": ("nu", "nv"),
-    "WARD": ("alpha_x", "alpha_y"),
-    "GGX": ("alpha_x", "alpha_y"),
-}
-_MODEL_SPECTRA = {
-    "LAMBERT": (("diffuse", "Albedo"),),
-    "OREN_NAYAR": (("diffuse", "Albedo"),),
-    "ASHIKHMIN_SHIRLEY": (("diffuse", "Diffuse"), ("specular", "Specular")),
-    "WARD": (("diffuse", "Diffuse"), ("specular", "Specular")),
-    "GGX": (("ior_n", "IOR n"), ("ior_k", "IOR k"), ("diffuse", "Diffuse")),
-}
+from .properties import MODEL_KEYS
 
 
 def _draw_spectrum(layout, group, label: str) -> None:
@@ -73,10 +59,11 @@ class SPECTRAL_PT_material(bpy.types.Panel):
         layout.prop(s, "source")
         if s.source == "ANALYTIC":
             layout.prop(s, "model")
-            for name in _MODEL_PARAMS[s.model]:
+            model = MODEL_KEYS[s.model]
+            for name in sources.MODEL_SCALARS[model]:
                 layout.prop(s, name)
-            for prop, label in _MODEL_SPECTRA[s.model]:
-                _draw_spectrum(layout, getattr(s, prop), label)
+            for param, prop in sources.MODEL_SPECTRA[model].items():
+                _draw_spectrum(layout, getattr(s, prop), sources.spectrum_label(s, param, prop))
         else:
             layout.prop(s, "filepath")
 

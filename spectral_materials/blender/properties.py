@@ -231,7 +231,6 @@ class SPECTRAL_PG_scene(bpy.types.PropertyGroup):
                                 description="Upper bound on basis coefficients")
     basis_size: IntProperty(name="Basis size", min=0,
                             description="Coefficients of the stored scene basis (0 = none)")
-    basis_hash: StringProperty(description="Hash of the stored scene basis")
     basis_max_de94: FloatProperty(name="Basis max ΔE94", precision=4,
                                   description="Worst light × material ΔE94 of the basis")
     analysis: StringProperty(name="Scene analysis",

@@ -116,6 +116,24 @@ def _abspath(path: str) -> str:
     return bpy.path.abspath(path) if path else ""
 
 
+def _typed_or_csv(group) -> np.ndarray:
+    """A spectrum typed into ``group.text`` (kind TEXT) or read from ``group.filepath``."""
+    if group.kind == "TEXT":
+        pair = spectrum_library.parse_spectrum_text(group.text)
+    else:
+        path = _abspath(group.filepath)
+        if not path:
+            raise SourceError("no CSV file chosen")
+        pair = spectrum_library.read_spectrum_csv(path)
+    return spectrum_library.spectrum_to_grid(*pair, WAVELENGTHS)
+
+
+def spectrum_label(material_settings, param: str, prop: str) -> str:
+    """How the UI and messages name a model's spectrum ("Albedo" for the albedo role)."""
+    return "Albedo" if param == "albedo" else \
+        material_settings.bl_rna.properties[prop].name
+
+
 def spectrum_from_source(group, owner: str, label: str) -> np.ndarray:
     """A spectrum property group → values on :data:`WAVELENGTHS`."""
     what = f"{owner}: {label} spectrum"
@@ -124,14 +142,7 @@ def spectrum_from_source(group, owner: str, label: str) -> np.ndarray:
             return spectra.colorchecker(int(group.patch), WAVELENGTHS)
         if group.kind == "CONSTANT":
             return np.full(WAVELENGTHS.shape, _finite(f"{what} value", group.constant))
-        if group.kind == "TEXT":
-            pair = spectrum_library.parse_spectrum_text(group.text)
-        else:
-            path = _abspath(group.filepath)
-            if not path:
-                raise SourceError("no CSV file chosen")
-            pair = spectrum_library.read_spectrum_csv(path)
-        return spectrum_library.spectrum_to_grid(*pair, WAVELENGTHS)
+        return _typed_or_csv(group)
     except SourceError as exc:
         raise SourceError(f"{what}: {exc}") from None
     except (ValueError, OSError) as exc:
@@ -216,7 +227,7 @@ def material_inputs(material) -> MaterialInputs:
     _check_scalars(name, model, scalars, labels)
     values = {}
     for param, prop in MODEL_SPECTRA[model].items():
-        label = "albedo" if param == "albedo" else prop.replace("_", " ")
+        label = spectrum_label(s, param, prop).lower()
         spectrum = spectrum_from_source(getattr(s, prop), name, label)
         lo, hi = _SPECTRUM_RANGE[param]
         bad = (spectrum < lo) | (spectrum > hi) | ~np.isfinite(spectrum)
@@ -249,14 +260,7 @@ def light_spd(light) -> np.ndarray:
             spd = spectrum_library.blackbody_spd(_finite(f"{name}: temperature", s.temperature),
                                                  WAVELENGTHS)
         else:
-            if s.kind == "TEXT":
-                pair = spectrum_library.parse_spectrum_text(s.text)
-            else:
-                path = _abspath(s.filepath)
-                if not path:
-                    raise SourceError("no CSV file chosen")
-                pair = spectrum_library.read_spectrum_csv(path)
-            spd = spectrum_library.spectrum_to_grid(*pair, WAVELENGTHS)
+            spd = _typed_or_csv(s)
         spectrum_library.check_spd(spd, name)
     except (ValueError, OSError) as exc:
         message = str(exc)
@@ -265,10 +269,8 @@ def light_spd(light) -> np.ndarray:
     return spd * power
 
 
-def sampled_spectra(inputs: MaterialInputs, brdf=None) -> np.ndarray:
-    """The material's f·cosθi spectra every 10° (the spectra its basis must represent)."""
-    brdf = inputs.brdf() if brdf is None else brdf
-    isotropic = factor.is_isotropic(brdf, WAVELENGTHS)
+def sampled_spectra(brdf, isotropic: bool) -> np.ndarray:
+    """A BRDF's f·cosθi spectra every 10° (the spectra the scene basis must represent)."""
     values = factor.sample_brdf_spectra(brdf, WAVELENGTHS, isotropic)
     keep = np.abs(values).max(axis=1) > 0
     return values[keep] if keep.any() else values[:1]

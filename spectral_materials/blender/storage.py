@@ -231,17 +231,9 @@ def clear_factored(material) -> bool:
     result = material.spectral.result
     had = result.image is not None
     image, plot = result.image, result.plot
-    result.image = None
-    result.plot = None
-    for key in ("wavelengths", "basis_shape"):
-        if key in result:
-            del result[key]
-    for prop in ("parameterization", "resolution", "edge", "input_hash", "report_json"):
-        setattr(result, prop, "")
-    for prop in ("terms", "packs", "pack_size", "spectral_size", "nbytes"):
-        setattr(result, prop, 0)
-    for prop in ("de94_mean", "de94_p95", "de94_max", "seconds"):
-        setattr(result, prop, 0.0)
+    # Every stored field back to its default, the ID properties (wavelengths, …) too.
+    for key in list(result.keys()):
+        del result[key]
     material.update_tag()
     remove_image(image)
     remove_image(plot)

@@ -80,18 +80,6 @@ def build_basis(brdf, wavelengths: np.ndarray, isotropic: bool,
                     f"LinearModelBasis, got {type(spectral_basis).__name__}")
 
 
-class _ColourTarget:
-    """Mean ΔE94 under D65 at the protocol's random pairs, for the stopping rule."""
-
-    def __init__(self, brdf, count: int = 4000):
-        self.wi, self.wo = metrics.random_direction_pairs(count)
-        self.reference = metrics.reference_xyz(brdf, self.wi, self.wo, "D65")
-
-    def mean_de94(self, model: FactoredBRDF) -> float:
-        xyz = model.xyz(self.wi, self.wo, "D65")
-        return metrics.delta_e94_stats(self.reference, xyz, "D65")["mean"]
-
-
 def factor_brdf(
     brdf,
     *,
@@ -241,7 +229,8 @@ def factor_brdf_series(
     counts = sorted(set(int(c) for c in pack_counts)) if pack_counts else []
     max_packs = max(counts) if counts else (
         packs if packs is not None else (64 if target_de94 is not None else DEFAULT_PACKS))
-    target = _ColourTarget(brdf) if target_de94 is not None else None
+    # The stopping rule's estimate: the protocol's measure on its first 4000 pairs.
+    target = metrics.ProtocolError(brdf, count=4000) if target_de94 is not None else None
     base = dict(
         parameterization=table.grid.parameterization.name, resolution=table.grid.shape,
         wavelengths=table.wavelengths,
@@ -408,7 +397,7 @@ def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de9
         stop = False
         if target is not None:
             model = as_model(factors, pack, error_sq, seconds)
-            row["mean_de94_d65"] = target.mean_de94(model)
+            row["mean_de94_d65"] = target.stats(model)["mean"]
             stop = row["mean_de94_d65"] <= target_de94
         per_pack.append(row)
         if pack in counts:

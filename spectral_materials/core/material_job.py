@@ -45,17 +45,6 @@ class MaterialJobResult:
     seconds: float = 0.0
 
 
-class ProtocolError:
-    """ΔE94 under D65 at the protocol's random pairs, reference computed once."""
-
-    def __init__(self, brdf, count: int = metrics.RANDOM_PAIRS):
-        self.wi, self.wo = metrics.random_direction_pairs(count)
-        self.reference = metrics.reference_xyz(brdf, self.wi, self.wo, "D65")
-
-    def stats(self, model: FactoredBRDF) -> dict:
-        return metrics.delta_e94_stats(self.reference, model.xyz(self.wi, self.wo, "D65"), "D65")
-
-
 def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions,
                     callback: ProgressCallback | None = None) -> MaterialJobResult:
     """Factor ``brdf`` on ``basis`` and measure every pack count up to the final one.
@@ -66,7 +55,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     """
     start = time.perf_counter()
     report(callback, 0.0, "reference colours")
-    error = ProtocolError(brdf)
+    error = metrics.ProtocolError(brdf)
     counts = None if options.target_de94 is not None else list(range(1, options.packs + 1))
     models = factor_brdf_series(
         brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,

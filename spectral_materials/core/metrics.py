@@ -116,3 +116,17 @@ def cosine_weighted_luminance_rms(brdf, model, count: int = 8000, seed: int = 19
     ref = reference_xyz(brdf, wi, wo, flat)[:, 1]
     test = model.xyz(wi, wo, np.ones(np.asarray(model.wavelengths).size))[:, 1]
     return float(np.sqrt(np.mean((ref - test) ** 2)))
+
+
+class ProtocolError:
+    """ΔE94 under D65 at the protocol's random pairs, the 5 nm reference computed once.
+
+    ``stats(model)`` measures any model with an ``xyz(wi, wo, illuminant)`` method.
+    """
+
+    def __init__(self, brdf, count: int = RANDOM_PAIRS):
+        self.wi, self.wo = random_direction_pairs(count)
+        self.reference = reference_xyz(brdf, self.wi, self.wo, "D65")
+
+    def stats(self, model) -> dict:
+        return delta_e94_stats(self.reference, model.xyz(self.wi, self.wo, "D65"), "D65")
