@@ -121,3 +121,16 @@ def xyz_to_display(xyz: np.ndarray, scene_white: np.ndarray, *, exposure: float 
     """The full display pipeline: XYZ → Bradford → linear sRGB → tone map → sRGB (0..1)."""
     adapted = bradford_adapt(np.asarray(xyz, dtype=np.float64) * exposure, scene_white)
     return srgb_encode(tonemap_sigmoid(xyz_to_linear_srgb(adapted), white=tonemap_white))
+
+
+def bradford_matrix(white_source: np.ndarray,
+                    white_target: np.ndarray = DISPLAY_WHITE_XYZ) -> np.ndarray:
+    """The 3 × 3 matrix of :func:`bradford_adapt` (XYZ column vectors), for the shaders."""
+    return colour.adaptation.matrix_chromatic_adaptation_VonKries(
+        np.asarray(white_source, dtype=np.float64), np.asarray(white_target, dtype=np.float64),
+        transform="Bradford")
+
+
+def xyz_to_linear_srgb_matrix() -> np.ndarray:
+    """The 3 × 3 matrix of :func:`xyz_to_linear_srgb` (XYZ column vectors)."""
+    return np.array(_SRGB.matrix_XYZ_to_RGB, dtype=np.float64)

@@ -87,6 +87,8 @@ HALF_PI = 0.5 * math.pi
 
 #: |wi + wo| at or below this: the half vector is undefined and taken to be n.
 HALF_VECTOR_EPS = 1e-12
+#: Below this |v.xy| an azimuth is rounding noise and taken as 0 (θ < 1e-12 rad).
+POLE_RHO = 1e-12
 #: Tolerance of the validity tests of ``inverse`` (horizon, axis ranges, unit discs).
 VALID_EPS = 1e-12
 #: Horizon tolerance of ``gs``: hz and dz are square roots of 1 − (sum of squares),
@@ -123,7 +125,10 @@ def spherical(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Polar angle θ ∈ [0, π] and azimuth φ ∈ [0, 2π) of vectors ``v (..., 3)``.
 
     θ = atan2(√(x² + y²), z), which is accurate near the poles and needs no
-    clipping for |z| slightly above 1. φ = 0 where x = y = 0.
+    clipping for |z| slightly above 1. φ = 0 where √(x² + y²) ≤ :data:`POLE_RHO`:
+    there the azimuth is rounding noise (e.g. the difference vector when wi = wo
+    exactly), and a fixed value keeps evaluation deterministic (the GLSL mirror
+    does the same at its float32 noise level).
     """
     v = np.asarray(v, dtype=np.float64)
     # Contiguous copies: NumPy's SIMD loops on strided views round the last bit
@@ -131,7 +136,7 @@ def spherical(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     x, y, z = (np.ascontiguousarray(v[..., k]) for k in range(3))
     rho = np.hypot(x, y)
     theta = np.arctan2(rho, z)
-    phi = np.where(rho > 0.0, _wrap_2pi(np.arctan2(y, x)), 0.0)
+    phi = np.where(rho > POLE_RHO, _wrap_2pi(np.arctan2(y, x)), 0.0)
     return theta, phi
 
 

@@ -1,0 +1,45 @@
+/* Factor-pack reconstruction: per pack of 4 rank-one terms, the product over the
+ * angular axes of each factor interpolated at the pixel's coordinates.
+ * Mirrors FactoredBRDF.coefficients (spectral_materials/core/factored.py).
+ *
+ * factor_tex is the material's factor image (blender/storage.py): texel (x, k·G + g)
+ * holds terms 4g … 4g+3 of axis k at sample x, with G = sm.misc.y texel rows per axis.
+ * Texels are read with texelFetch and interpolated here, exactly as the Python
+ * lookup does (a hardware filter would round its weights to 8 bits). */
+
+struct SmLookup {
+  ivec4 i0;
+  ivec4 i1;
+  vec4 w;
+};
+
+SmLookup sm_lookups(vec4 coords)
+{
+  SmLookup lookup;
+  lookup.i0 = ivec4(0);
+  lookup.i1 = ivec4(0);
+  lookup.w = vec4(0.0);
+  for (int k = 0; k < SM_AXES; k++) {
+    int i0, i1;
+    float w;
+    sm_axis_lookup(coords[k], sm.axis_lo[k], sm.axis_span[k], sm.axis_flags[k], sm.axis_cells[k],
+                   sm.misc.x != 0, i0, i1, w);
+    lookup.i0[k] = i0;
+    lookup.i1[k] = i1;
+    lookup.w[k] = w;
+  }
+  return lookup;
+}
+
+/* The 4 terms of pack `pack`: Π_k mix(A_k[i0], A_k[i1], w_k). */
+vec4 sm_pack_product(SmLookup lookup, int pack)
+{
+  vec4 product = vec4(1.0);
+  for (int k = 0; k < SM_AXES; k++) {
+    int row = k * sm.misc.y + pack;
+    vec4 a = texelFetch(factor_tex, ivec2(lookup.i0[k], row), 0);
+    vec4 b = texelFetch(factor_tex, ivec2(lookup.i1[k], row), 0);
+    product *= mix(a, b, lookup.w[k]);
+  }
+  return product;
+}

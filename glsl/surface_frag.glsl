@@ -1,0 +1,69 @@
+/* Spectral surface shading: every light through the factor packs, to linear XYZ
+ * (SM_OUTPUT 0) or to display sRGB (SM_OUTPUT 1). SM_OUTPUT 2/3/4 write the
+ * world position, the geometric normal facing the viewer and the raw tangent
+ * instead, so that tests can evaluate the Python mirror on the same geometry;
+ * SM_OUTPUT 5 writes the parameterisation's coordinates for light 0. */
+
+void main()
+{
+  vec3 P, N, T;
+#ifdef SM_GEOMETRY_SPHERE
+  /* Pixel centre → [−1, 1]²; row 0 is the bottom (+y up). */
+  vec2 xy = gl_FragCoord.xy / sm.display.zw * 2.0 - 1.0;
+  float r2 = dot(xy, xy);
+  if (r2 >= 1.0) {
+    discard;
+  }
+  N = vec3(xy, sqrt(1.0 - r2));
+  P = N;
+  T = vec3(0.0); /* the generated field ŷ × n: the protocol's tangent */
+  vec3 V = vec3(0.0, 0.0, 1.0);
+#else
+  P = world_position;
+  N = sm_safe_normalize(world_normal, vec3(0.0, 0.0, 1.0));
+  T = world_tangent;
+  vec3 V = sm.view_origin.w > 0.5 ? sm_safe_normalize(sm.view_origin.xyz - P, N) :
+                                 sm.view_origin.xyz;
+  /* Two-sided: a face seen from behind is shaded with its normal flipped. */
+  if (dot(N, V) < 0.0) {
+    N = -N;
+  }
+#endif
+#if SM_OUTPUT == 2
+  frag_colour = vec4(P, 1.0);
+  return;
+#elif SM_OUTPUT == 3
+  frag_colour = vec4(N, 1.0);
+  return;
+#elif SM_OUTPUT == 4
+  frag_colour = vec4(T, 1.0);
+  return;
+#else
+  mat3 frame = sm_frame(N, T);
+  vec3 wo = sm_to_local(frame, V);
+#  if SM_OUTPUT == 5
+  vec3 wi0;
+  sm_light_incidence(0, P, wi0);
+  frag_colour = sm_coordinates(sm_to_local(frame, wi0), wo);
+  return;
+#  endif
+  vec3 xyz = vec3(0.0);
+  for (int light = 0; light < SM_LIGHTS; light++) {
+    vec3 wi_world;
+    float irradiance = sm_light_incidence(light, P, wi_world);
+    vec3 wi = sm_to_local(frame, wi_world);
+    if (irradiance > 0.0 && wi.z > 0.0 && wo.z > 0.0) {
+      vec3 reflected = sm_reflected_xyz(sm_lookups(sm_coordinates(wi, wo)), light);
+#  if !SM_COSINE_WEIGHTED
+      reflected *= wi.z;
+#  endif
+      xyz += irradiance * reflected;
+    }
+  }
+#  if SM_OUTPUT == 0
+  frag_colour = vec4(xyz, 1.0);
+#  else
+  frag_colour = vec4(sm_xyz_to_display(xyz), 1.0);
+#  endif
+#endif
+}

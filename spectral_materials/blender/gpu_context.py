@@ -1,0 +1,64 @@
+"""Making Blender's ``gpu`` module usable, also headless.
+
+In the UI the GPU context exists. In background mode (``blender --background``,
+the ``bpy`` module) every ``gpu`` call fails until a render has initialised the
+GPU (EGL, Mesa llvmpipe where there is no GPU): :func:`ensure_gpu` renders one
+4 × 4 EEVEE frame of a throw-away scene, which it then removes, so the user's
+scene is not touched. The first such render compiles EEVEE's shaders (~30 s on
+llvmpipe); later calls return at once.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+_READY = False
+
+
+class GPUUnavailable(RuntimeError):
+    """No GPU context could be made (e.g. EGL is missing); the message says what to install."""
+
+
+def _probe() -> bool:
+    import gpu
+
+    try:
+        gpu.types.GPUOffScreen(1, 1).free()
+    except (SystemError, RuntimeError, ValueError):
+        return False
+    return True
+
+
+def _tiny_render() -> None:
+    scene = bpy.data.scenes.new("SM gpu init")
+    camera_data = bpy.data.cameras.new("SM gpu init")
+    camera = bpy.data.objects.new("SM gpu init", camera_data)
+    try:
+        scene.collection.objects.link(camera)
+        scene.camera = camera
+        scene.render.engine = "BLENDER_EEVEE"
+        scene.render.resolution_x = scene.render.resolution_y = 4
+        scene.render.resolution_percentage = 100
+        bpy.ops.render.render(scene=scene.name)
+    finally:
+        bpy.data.objects.remove(camera)
+        bpy.data.cameras.remove(camera_data)
+        bpy.data.scenes.remove(scene)
+
+
+def ensure_gpu() -> None:
+    """Make ``gpu`` usable; raises :class:`GPUUnavailable` with what to do if it cannot."""
+    global _READY
+    if _READY:
+        return
+    if not _probe():
+        try:
+            _tiny_render()
+        except RuntimeError as exc:
+            raise GPUUnavailable(f"could not initialise the GPU through an EEVEE render: {exc}"
+                                 ) from exc
+        if not _probe():
+            raise GPUUnavailable(
+                "the GPU is not available: headless drawing needs EGL (on Debian/Ubuntu: "
+                "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1)")
+    _READY = True

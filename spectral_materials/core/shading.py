@@ -1,0 +1,192 @@
+"""The GPU draw path's maths in float64: the Python mirror that the shaders are tested against.
+
+``glsl/`` evaluates, per pixel, the same steps as :func:`shade_xyz`: a shading
+frame from the interpolated normal and tangent (:func:`shading_frame`), the view
+direction, and for every light its direction and irradiance
+(:meth:`SpectralLight.incidence`) times the factored BRDF's reflected XYZ
+(:meth:`FactoredBRDF.xyz` with the light's spectral weights). The GPU reads its
+inputs from two textures: the material's factor image and the light texture
+built by :func:`light_texels`.
+
+Images follow the GPU's convention: row 0 is the bottom row.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .factored import FactoredBRDF
+from .lights import SpectralLight
+
+#: Texels before the spectral weights in a light-texture row (glsl/lights.glsl).
+LIGHT_HEADER = 3
+#: A tangent whose part orthogonal to n is this short (squared) carries no direction.
+TANGENT_EPS_SQ = 1e-8
+
+
+def _normalize(v: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    len2 = np.einsum("ij,ij->i", v, v)
+    ok = len2 > 1e-30
+    out = v / np.sqrt(np.where(ok, len2, 1.0))[:, None]
+    return np.where(ok[:, None], out, fallback)
+
+
+def generated_tangent(normals: np.ndarray) -> np.ndarray:
+    """``normalize(ŷ × n)``, and x̂ where that is undefined (n = ±ŷ): the protocol's field."""
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    g = np.stack([n[:, 2], np.zeros(len(n)), -n[:, 0]], axis=-1)
+    len2 = np.einsum("ij,ij->i", g, g)
+    ok = len2 > 1e-24
+    g = g / np.sqrt(np.where(ok, len2, 1.0))[:, None]
+    return np.where(ok[:, None], g, np.array([1.0, 0.0, 0.0]))
+
+
+def shading_frame(normals: np.ndarray, tangents: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, b, n) per point: the tangent made orthogonal to n, or the generated field.
+
+    A zero, missing (pass zeros) or normal-parallel tangent falls back to
+    :func:`generated_tangent`; a zero normal to +z. ``b = n × t``.
+    """
+    n = _normalize(np.asarray(normals, dtype=np.float64).reshape(-1, 3), np.array([0, 0, 1.0]))
+    tangents = np.asarray(tangents, dtype=np.float64).reshape(-1, 3)
+    t = tangents - n * np.einsum("ij,ij->i", n, tangents)[:, None]
+    len2 = np.einsum("ij,ij->i", t, t)
+    ok = len2 > TANGENT_EPS_SQ
+    t = np.where(ok[:, None], t / np.sqrt(np.where(ok, len2, 1.0))[:, None],
+                 generated_tangent(n))
+    return t, np.cross(n, t), n
+
+
+def to_local(frame: tuple[np.ndarray, np.ndarray, np.ndarray], v: np.ndarray) -> np.ndarray:
+    t, b, n = frame
+    return np.stack([np.einsum("ij,ij->i", t, v), np.einsum("ij,ij->i", b, v),
+                     np.einsum("ij,ij->i", n, v)], axis=-1)
+
+
+@dataclass(frozen=True)
+class View:
+    """The camera as the shaders see it: ``origin`` is the eye position (perspective)
+    or the unit direction toward the viewer (orthographic)."""
+
+    origin: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    perspective: bool = False
+
+    def directions(self, points: np.ndarray) -> np.ndarray:
+        """Unit directions from ``points (N, 3)`` toward the viewer."""
+        origin = np.asarray(self.origin, dtype=np.float64)
+        if not self.perspective:
+            return np.broadcast_to(origin / np.linalg.norm(origin), points.shape).copy()
+        return _normalize(origin - points, np.array([0.0, 0.0, 1.0]))
+
+    def uniform(self) -> tuple[float, float, float, float]:
+        """The shaders' ``view_origin`` (w = 1 for a perspective eye)."""
+        return (*map(float, self.origin), 1.0 if self.perspective else 0.0)
+
+
+def light_texels(model: FactoredBRDF, lights: list[SpectralLight], *,
+                 precontract: bool = True) -> np.ndarray:
+    """The light texture (lights, width, 4) float32 for drawing ``model`` (glsl/lights.glsl).
+
+    Header texels: (position, type code), (axis, strength), (spot cos, spot blend
+    width, 0, 0). Then, with ``precontract``, 3 texels per pack holding the X, Y,
+    Z weights of its 4 terms, ``K = spectralᵀ Ĩ``; without, the light's spectral
+    weights Ĩ_j (one texel each, xyz).
+    """
+    if model.form != "cp":
+        raise ValueError("the GPU path draws CP factor packs; refactor separable models as CP")
+    if not lights:
+        raise ValueError("nothing to draw with: no lights")
+    groups = -(-model.terms // 4)
+    width = LIGHT_HEADER + (3 * groups if precontract else model.spectral_size)
+    texels = np.zeros((len(lights), width, 4), dtype=np.float64)
+    spectral = np.zeros((model.spectral_size, groups * 4))
+    spectral[:, : model.terms] = model.spectral
+    for row, light in enumerate(lights):
+        texels[row, 0] = (*light.position, light.code)
+        texels[row, 1] = (*light.axis, light.strength)
+        texels[row, 2, :2] = (light.spot_cos, light.spot_blend_width)
+        weights = light.weights(model.wavelengths, model.basis)          # (S, 3)
+        if precontract:
+            k = spectral.T @ weights                                      # (4G, 3)
+            texels[row, LIGHT_HEADER:] = k.reshape(groups, 4, 3).transpose(0, 2, 1) \
+                .reshape(3 * groups, 4)
+        else:
+            texels[row, LIGHT_HEADER:, :3] = weights
+    if not np.isfinite(texels).all() or np.abs(texels).max() > np.finfo(np.float32).max:
+        raise ValueError("light data overflow float32: a light's strength or SPD is too large")
+    return texels.astype(np.float32)
+
+
+def shade_xyz(model: FactoredBRDF, points: np.ndarray, normals: np.ndarray,
+              tangents: np.ndarray, view: View, lights: list[SpectralLight],
+              *, two_sided: bool = True) -> np.ndarray:
+    """Linear XYZ (N, 3) leaving each point toward the viewer: the shaders' maths in float64.
+
+    ``two_sided`` flips normals that face away from the viewer, as the mesh
+    shader does.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    normals = _normalize(np.asarray(normals, dtype=np.float64).reshape(-1, 3),
+                         np.array([0.0, 0.0, 1.0]))
+    v = view.directions(points)
+    if two_sided:
+        normals = np.where((np.einsum("ij,ij->i", normals, v) < 0)[:, None], -normals, normals)
+    frame = shading_frame(normals, tangents)
+    wo = to_local(frame, v)
+    xyz = np.zeros((len(points), 3))
+    for light in lights:
+        wi_world, irradiance = light.incidence(points)
+        wi = to_local(frame, wi_world)
+        lit = (irradiance > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0)
+        if not lit.any():
+            continue
+        weights = light.weights(model.wavelengths, model.basis)
+        reflected = model.coefficients(wi[lit], wo[lit])
+        if not model.cosine_weighted:
+            reflected = reflected * wi[lit, 2:3]
+        xyz[lit] += irradiance[lit, None] * (reflected @ weights)
+    return xyz
+
+
+def sphere_pixels(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """The protocol sphere as the GPU rasterises it: (points (P, 3), mask (size, size)).
+
+    Pixel centres map to [−1, 1]² with row 0 at the bottom; a pixel is on the
+    sphere when x² + y² < 1, where the point (and normal) is (x, y, √(1 − r²)).
+    """
+    if not 1 <= size <= 8192:
+        raise ValueError(f"sphere size must be 1..8192, got {size}")
+    centres = (np.arange(size) + 0.5) / size * 2.0 - 1.0
+    x, y = np.meshgrid(centres, centres)
+    r2 = x * x + y * y
+    mask = r2 < 1.0
+    points = np.stack([x[mask], y[mask], np.sqrt(1.0 - r2[mask])], axis=-1)
+    return points, mask
+
+
+def protocol_sun(incidence_deg: float, spd: np.ndarray | str = "D65",
+                 wavelengths: np.ndarray | None = None) -> SpectralLight:
+    """The sphere protocol's light: a sun of strength 1 at ``l = (sin α, 0, cos α)``."""
+    from . import colour_pipeline, spectra
+
+    wl = spectra.WAVELENGTHS_REFERENCE if wavelengths is None else wavelengths
+    values = colour_pipeline.illuminant_spd(spd, wl)
+    alpha = np.radians(float(incidence_deg))
+    return SpectralLight("SUN", values, wl, strength=1.0,
+                         axis=(-np.sin(alpha), 0.0, -np.cos(alpha)),
+                         name=spd if isinstance(spd, str) else "SPD")
+
+
+def sphere_xyz(model: FactoredBRDF, incidence_deg: float, illuminant: np.ndarray | str = "D65",
+               size: int = 256) -> tuple[np.ndarray, np.ndarray]:
+    """The protocol sphere's XYZ image (size, size, 3), row 0 at the bottom, and its lit mask."""
+    points, mask = sphere_pixels(size)
+    light = protocol_sun(incidence_deg, illuminant, model.wavelengths)
+    xyz = shade_xyz(model, points, points, np.zeros_like(points), View(), [light],
+                    two_sided=False)
+    image = np.zeros((size, size, 3))
+    image[mask] = xyz
+    return image, mask
