@@ -15,11 +15,16 @@ vec3 sm_xyz_to_linear_srgb(vec3 xyz)
   return mat3(sm.xyz_to_rgb) * xyz;
 }
 
-/* Extended Reinhard x (1 + x / w²) / (1 + x), negative input 0, capped at 1. */
+/* Extended Reinhard x (1 + x / w²) / (1 + x), negative input 0, capped at 1;
+ * white ≤ 0 means no tone map (clip to [0, 1], the panel's "Clip"). The ratio is
+ * written x / (1 + x) · (1 + x / w²) so that huge x stays finite. */
 vec3 sm_tonemap(vec3 rgb, float white)
 {
   vec3 x = max(rgb, vec3(0.0));
-  return min(x * (1.0 + x / (white * white)) / (1.0 + x), vec3(1.0));
+  if (white <= 0.0) {
+    return min(x, vec3(1.0));
+  }
+  return min(x / (1.0 + x) * (1.0 + x / (white * white)), vec3(1.0));
 }
 
 /* IEC 61966-2-1 encoding of values clipped to [0, 1]. */

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bpy
 
+from . import draw as spectral_draw
 from . import jobs, plots, sources
 from .properties import MODEL_KEYS
 
@@ -188,6 +189,10 @@ class SPECTRAL_PT_scene(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         s = context.scene.spectral
+        layout.prop(s, "viewport_draw", icon="SHADING_RENDERED", toggle=True)
+        failed = spectral_draw.failed_materials()
+        for name, reason in failed:
+            layout.label(text=f"{name}: {reason}", icon="ERROR")
         layout.use_property_split = True
         layout.use_property_decorate = False
         layout.prop(s, "observer")

@@ -210,18 +210,40 @@ class SPECTRAL_PG_light(bpy.types.PropertyGroup):
     plot_key: StringProperty(description="Inputs the SPD plot was drawn from")
 
 
+def _viewport_draw_changed(self, context) -> None:
+    from . import draw
+
+    if self.viewport_draw:
+        draw.enable_viewport()
+    elif not any(s.spectral.viewport_draw for s in bpy.data.scenes):
+        draw.disable_viewport()
+    draw.redraw_viewports()
+
+
+def _redraw(self, context) -> None:
+    from . import draw
+
+    draw.redraw_viewports()
+
+
 class SPECTRAL_PG_scene(bpy.types.PropertyGroup):
     """Scene-wide colour options and the shared spectral basis."""
 
+    viewport_draw: BoolProperty(name="Spectral Viewport", default=False,
+                                update=_viewport_draw_changed,
+                                description="Draw objects with factored materials through the "
+                                            "spectral shaders, lit by the scene's lights")
     observer: EnumProperty(name="Observer", items=OBSERVER_ITEMS, default="CIE_1931_2",
                            description="Colour matching functions for every XYZ")
     adaptation_white: EnumProperty(name="Adaptation white", items=ILLUMINANT_ITEMS,
-                                   default="D65",
+                                   default="D65", update=_redraw,
                                    description="Scene white the display adapts from "
                                                "(Bradford) before sRGB")
     tone_mapping: EnumProperty(name="Tone mapping", items=TONE_MAP_ITEMS, default="SIGMOID",
+                               update=_redraw,
                                description="Curve from linear sRGB to the display")
     tone_white: FloatProperty(name="White", default=4.0, soft_min=1.0, soft_max=64.0,
+                              update=_redraw,
                               description="Linear value that maps to display white (sigmoid)")
     basis_tolerance: FloatProperty(name="Basis tolerance", default=0.05, soft_min=0.001,
                                    soft_max=1.0, precision=3,

@@ -1,0 +1,310 @@
+"""Drawing factored materials: the viewport draw handler and offscreen scene renders.
+
+:func:`draw_objects` draws every visible object whose material slots hold stored
+factor packs, through the shader variant each material needs (``shaders.py``),
+with the scene's lights (``scene_lights.py``). Other geometry is drawn into the
+depth buffer only, so that it hides what is behind it. The viewport draw handler
+(``SpaceView3D``, ``POST_VIEW``, depth-tested against Blender's own drawing) and
+:func:`render_camera` (an RGBA32F offscreen from the scene camera) both call it.
+
+Caches: shader variants (``shaders``), batches per object (``mesh_batches``,
+rebuilt when geometry changes), and factor textures per material (rebuilt when
+its stored factors change). :func:`reset` drops them all; it runs on file load
+and on unregister, which also remove the handler.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from ..core.shading import View
+from . import mesh_batches, scene_lights, shaders, storage
+from .gpu_material import DisplaySettings, GPUMaterial
+from .offscreen import Target
+from .scene import GEOMETRY_TYPES, _renders
+
+_MATERIALS: dict[str, tuple] = {}
+_HANDLE = None
+_OCCLUDER_SHADER = None
+#: Materials that failed to draw, with the reason (shown in the panel; not retried
+#: until their factors change).
+FAILED: dict[str, str] = {}
+
+
+@dataclass
+class DrawStats:
+    """What one :func:`draw_objects` call drew."""
+
+    objects: list[str] = field(default_factory=list)
+    materials: list[str] = field(default_factory=list)
+    variants: set = field(default_factory=set)
+    triangles: int = 0
+    texture_bytes: int = 0
+    vertex_bytes: int = 0
+
+
+def failed_materials() -> list[tuple[str, str]]:
+    """(material, reason) for materials the draw path refused."""
+    return [(name, reason) for name, (_, reason) in sorted(FAILED.items())]
+
+
+def _material_key(material) -> tuple | None:
+    result = material.spectral.result
+    if not material.spectral.enabled or result.image is None:
+        return None
+    return (result.image.name, result.input_hash, result.terms, result.spectral_size,
+            result.image.size[0], result.image.size[1])
+
+
+def gpu_material(material) -> GPUMaterial | None:
+    """The cached :class:`GPUMaterial` of a material with stored factors (else None)."""
+    key = _material_key(material)
+    if key is None:
+        return None
+    cached = _MATERIALS.get(material.name)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    if FAILED.get(material.name, (None,))[0] == key:
+        return None
+    try:
+        resource = GPUMaterial(storage.load_factored(material))
+    except ValueError as exc:
+        FAILED[material.name] = (key, str(exc))
+        print(f"Spectral Materials: not drawing '{material.name}': {exc}")
+        return None
+    _MATERIALS[material.name] = (key, resource)
+    return resource
+
+
+def _occluder_shader():
+    global _OCCLUDER_SHADER
+    if _OCCLUDER_SHADER is None:
+        import gpu
+
+        info = gpu.types.GPUShaderCreateInfo()
+        info.push_constant("MAT4", "mvp")
+        info.vertex_in(0, "VEC3", "position")
+        info.fragment_out(0, "VEC4", "frag_colour")
+        info.vertex_source("void main() { gl_Position = mvp * vec4(position, 1.0); }")
+        info.fragment_source("void main() { frag_colour = vec4(0.0); }")
+        _OCCLUDER_SHADER = gpu.shader.create_from_info(info)
+    return _OCCLUDER_SHADER
+
+
+def _column_major(matrix) -> list[float]:
+    return [float(v) for v in np.asarray(matrix, dtype=np.float64).T.ravel()]
+
+
+def _set_matrix(shader, name: str, matrix) -> None:
+    """Set a mat4 push constant; variants that do not read it have optimised it away."""
+    try:
+        shader.uniform_float(name, _column_major(matrix))
+    except ValueError as exc:
+        if "not found" not in str(exc):
+            raise
+
+
+def drawable_objects(scene, view_layer=None) -> list:
+    view_layer = view_layer or scene.view_layers[0]
+    return [o for o in scene.objects
+            if o.type in GEOMETRY_TYPES and _renders(o, view_layer)]
+
+
+def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
+                 output: str = "DISPLAY", display: DisplaySettings | None = None,
+                 lights: tuple | None = None, occluders: bool = True) -> DrawStats:
+    """Draw the scene's factored materials into the bound framebuffer (depth test on)."""
+    import gpu
+
+    stats = DrawStats()
+    toward_viewer = np.asarray(view.origin, dtype=np.float64)
+    light_list, lights_key = lights or scene_lights.drawn_lights(scene, toward_viewer)
+    display = display or scene_lights.display_settings(scene)
+    vp = np.asarray(view_projection, dtype=np.float64)
+    for obj in drawable_objects(scene):
+        slots = {i: gpu_material(s.material) if s.material is not None else None
+                 for i, s in enumerate(obj.material_slots)}
+        drawn_here = any(r is not None for r in slots.values())
+        if not drawn_here and not occluders:
+            continue
+        batches = mesh_batches.object_batches(obj, depsgraph)
+        if batches is None:
+            continue
+        model_matrix = np.array(obj.matrix_world)
+        normal_matrix = np.linalg.inv(model_matrix).T if abs(np.linalg.det(model_matrix)) \
+            > 1e-30 else np.eye(4)
+        for slot, batch in batches.batches.items():
+            resource = slots.get(slot)
+            if resource is None:
+                if occluders:
+                    shader = _occluder_shader()
+                    shader.bind()
+                    shader.uniform_float("mvp", _column_major(vp @ model_matrix))
+                    gpu.state.color_mask_set(False, False, False, False)
+                    batch.draw(shader)
+                    gpu.state.color_mask_set(True, True, True, True)
+                continue
+            key = resource.key(light_list, output=output)
+            shader = shaders.get_shader(key)
+            params = resource.params(display, view_origin=view.uniform(), view_projection=vp)
+            resource.bind(shader, resource.light_texture(light_list, key.precontract,
+                                                         lights_key), params)
+            _set_matrix(shader, "model_matrix", model_matrix)
+            _set_matrix(shader, "normal_matrix", normal_matrix)
+            batch.draw(shader)
+            stats.variants.add(key)
+            stats.triangles += len(batches.arrays.triangles[slot])
+            name = obj.material_slots[slot].material.name
+            if name not in stats.materials:
+                stats.materials.append(name)
+                stats.texture_bytes += resource.nbytes
+        if drawn_here:
+            stats.objects.append(obj.name)
+            stats.vertex_bytes += batches.arrays.nbytes
+    return stats
+
+
+def camera_view(camera, width: int, height: int, depsgraph) -> tuple[np.ndarray, View]:
+    """(view-projection matrix, View) of a camera object for a width × height image."""
+    render = depsgraph.scene.render
+    projection = np.array(camera.calc_matrix_camera(
+        depsgraph, x=width, y=height, scale_x=render.pixel_aspect_x,
+        scale_y=render.pixel_aspect_y))
+    world = np.array(camera.matrix_world)
+    view_matrix = np.linalg.inv(world)
+    if camera.data.type == "ORTHO":
+        toward = world[:3, 2] / np.linalg.norm(world[:3, 2])
+        view = View(tuple(toward), perspective=False)
+    else:
+        view = View(tuple(world[:3, 3]), perspective=True)
+    return projection @ view_matrix, view
+
+
+def render_camera(scene, *, width: int | None = None, height: int | None = None,
+                  output: str = "XYZ", camera=None) -> tuple[np.ndarray, DrawStats]:
+    """Draw the scene from its camera offscreen: ((height, width, 4) float32, stats).
+
+    Row 0 is the bottom. Size defaults to the scene's render resolution. Raises
+    ValueError when the scene has no camera or nothing factored to draw.
+    """
+    camera = camera or scene.camera
+    if camera is None or camera.type != "CAMERA":
+        raise ValueError(f"Scene '{scene.name}' has no camera to render from")
+    r = scene.render
+    width = width or max(1, r.resolution_x * r.resolution_percentage // 100)
+    height = height or max(1, r.resolution_y * r.resolution_percentage // 100)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    view_projection, view = camera_view(camera, width, height, depsgraph)
+    with Target(width, height) as target:
+        stats = draw_objects(scene, depsgraph, view_projection, view, output=output)
+        image = target.read()
+    if not stats.objects:
+        raise ValueError(f"Scene '{scene.name}': no visible object has a factored spectral "
+                         "material to draw (factor one first)")
+    return image, stats
+
+
+# ------------------------------------------------------------------- viewport handler
+
+
+def _viewport_callback() -> None:
+    import gpu
+
+    context = bpy.context
+    scene = context.scene
+    region_data = context.region_data
+    if scene is None or region_data is None or not scene.spectral.viewport_draw:
+        return
+    view_inverse = np.array(region_data.view_matrix.inverted())
+    if region_data.is_perspective:
+        view = View(tuple(view_inverse[:3, 3]), perspective=True)
+    else:
+        view = View(tuple(view_inverse[:3, 2] / np.linalg.norm(view_inverse[:3, 2])))
+    gpu.state.depth_test_set("LESS_EQUAL")
+    gpu.state.depth_mask_set(True)
+    try:
+        draw_objects(scene, context.evaluated_depsgraph_get(),
+                     np.array(region_data.perspective_matrix), view, occluders=False)
+    finally:
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+
+
+def enable_viewport() -> None:
+    """Add the draw handler (once)."""
+    global _HANDLE
+    if _HANDLE is None:
+        _HANDLE = bpy.types.SpaceView3D.draw_handler_add(_viewport_callback, (), "WINDOW",
+                                                         "POST_VIEW")
+
+
+def disable_viewport() -> None:
+    global _HANDLE
+    if _HANDLE is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_HANDLE, "WINDOW")
+        _HANDLE = None
+
+
+def viewport_enabled() -> bool:
+    return _HANDLE is not None
+
+
+def redraw_viewports() -> None:
+    wm = bpy.context.window_manager
+    for window in getattr(wm, "windows", []):
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
+def reset() -> None:
+    """Drop every GPU resource (textures, batches, shader variants)."""
+    _MATERIALS.clear()
+    FAILED.clear()
+    mesh_batches.clear_cache()
+    shaders.clear_cache()
+    global _OCCLUDER_SHADER
+    _OCCLUDER_SHADER = None
+
+
+@persistent
+def _on_load_pre(*_args) -> None:
+    disable_viewport()
+    reset()
+
+
+@persistent
+def _on_load_post(*_args) -> None:
+    if any(s.spectral.viewport_draw for s in bpy.data.scenes):
+        enable_viewport()
+
+
+@persistent
+def _on_depsgraph_update(_scene, depsgraph) -> None:
+    mesh_batches.note_depsgraph_updates(depsgraph)
+
+
+_APP_HANDLERS = (("load_pre", _on_load_pre), ("load_post", _on_load_post),
+                 ("depsgraph_update_post", _on_depsgraph_update))
+
+
+def register() -> None:
+    for name, function in _APP_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if function not in handlers:
+            handlers.append(function)
+    if any(s.spectral.viewport_draw for s in getattr(bpy.data, "scenes", [])):
+        enable_viewport()
+
+
+def unregister() -> None:
+    for name, function in _APP_HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if function in handlers:
+            handlers.remove(function)
+    disable_viewport()
+    reset()
