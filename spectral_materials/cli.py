@@ -9,6 +9,13 @@ Commands
     "table" row with the error of the tabulation itself (multilinear lookup of
     the grid, no factorisation), the floor no pack count can go below.
 
+``render-sphere``
+    Draw a saved :class:`~spectral_materials.core.factored.FactoredBRDF` on the
+    protocol sphere (shared/PROTOCOL.md) through the GPU path (Blender's ``gpu``
+    module, headless through EGL) and write linear CIE XYZ (channels X, Y, Z,
+    float32), normalised as the protocol says, to an OpenEXR file; ``--png``
+    also writes the display image (Bradford to D65, sRGB, sigmoid tone map).
+
 Exit status: 0 on success, 2 on a usage or data error (one line on stderr, no
 traceback), 130 when interrupted with Ctrl-C (printed as "cancelled").
 
@@ -619,11 +626,76 @@ def _add_factor_parser(sub) -> None:
     p.set_defaults(handler=cmd_factor)
 
 
+def cmd_render_sphere(args, progress: Progress) -> int:
+    from .core import colour_pipeline, spectra
+    from .core.factored import FactoredBRDF
+    from .core.formats.exr import write_exr
+
+    if args.illuminant not in spectra.ILLUMINANT_NAMES:
+        raise UsageError(f"unknown illuminant {args.illuminant!r}; choose one of "
+                         f"{', '.join(spectra.ILLUMINANT_NAMES)}")
+    if not -90.0 < args.incidence < 90.0:
+        raise UsageError(f"--incidence must be in (-90, 90) degrees, got {args.incidence}")
+    out = Path(args.out)
+    if out.suffix.lower() != ".exr":
+        raise UsageError(f"--out must name an .exr file, got {out}")
+    _check_output_path("--out", out)
+    _check_output_path("--png", Path(args.png) if args.png else None)
+    model = FactoredBRDF.load(args.factors)
+    progress.info("initialising the GPU (the first headless draw compiles shaders)")
+    import bpy  # noqa: F401  (the gpu module comes with Blender)
+
+    from .blender.gpu_material import DisplaySettings
+    from .blender.offscreen import render_sphere
+
+    image = render_sphere(model, args.incidence, args.illuminant, args.size, packs=args.packs)
+    xyz = image[..., :3]
+    write_exr(out, {"X": xyz[..., 0], "Y": xyz[..., 1], "Z": xyz[..., 2]}, {
+        "spectralMaterials": "linear CIE XYZ (1931 2°), sphere protocol: a white Lambertian "
+                             "lit head-on reflects Y = 1",
+        "illuminant": args.illuminant, "incidenceDegrees": f"{args.incidence:g}",
+        "packs": str(model.packs if args.packs is None else min(args.packs, model.packs)),
+    })
+    progress.info(f"wrote {out}")
+    if args.png:
+        white = colour_pipeline.white_xyz(args.illuminant, model.wavelengths)
+        display = render_sphere(model, args.incidence, args.illuminant, args.size,
+                                packs=args.packs, output="DISPLAY",
+                                display=DisplaySettings(scene_white=tuple(white)))
+        import imageio.v3 as iio
+
+        rgba = np.concatenate([display[..., :3], image[..., 3:]], axis=-1)[::-1]
+        iio.imwrite(args.png, (np.clip(rgba, 0, 1) * 255 + 0.5).astype(np.uint8))
+        progress.info(f"wrote {args.png}")
+    return 0
+
+
+def _add_render_sphere_parser(sub) -> None:
+    p = sub.add_parser(
+        "render-sphere", help="draw saved factors on the protocol sphere through the GPU",
+        description="Render a saved FactoredBRDF (.npz from 'factor --out') on the protocol "
+                    "sphere with the GPU shaders and write linear CIE XYZ to OpenEXR.")
+    p.add_argument("factors", metavar="FACTORS.npz")
+    p.add_argument("--incidence", type=float, default=0.0, metavar="DEG",
+                   help="light angle from the view direction in the x-z plane (default 0)")
+    p.add_argument("--illuminant", default="D65", metavar="NAME",
+                   help="CIE illuminant: A, D50, D65, FL1..FL12 (default D65)")
+    p.add_argument("--out", required=True, metavar="FILE.exr")
+    p.add_argument("--size", type=_int_in(1, 8192), default=256, metavar="N",
+                   help="pixels a side (default 256, the protocol's)")
+    p.add_argument("--packs", type=_int_in(1, 4096), default=None, metavar="N",
+                   help="draw only the first N packs (default all)")
+    p.add_argument("--png", metavar="FILE.png", help="also write the display image")
+    p.add_argument("--quiet", action="store_true", help="no messages on stderr")
+    p.set_defaults(handler=cmd_render_sphere)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=PROG, description="Spectral Materials: spectral BRDFs as factor packs.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_factor_parser(sub)
+    _add_render_sphere_parser(sub)
     return parser
 
 

@@ -1,0 +1,37 @@
+"""Fixtures for the GPU draw path: the ``gpu`` module made usable once, factored models cached.
+
+The shaders (``glsl/``) are drawn offscreen (EGL + Mesa llvmpipe when headless)
+and held against their float64 mirror, ``core/shading.py``. Factorising is the
+slow part, so each model is built once per session, at small resolutions.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from gpu_helpers import build_model  # noqa: E402
+
+
+@pytest.fixture(scope="session", autouse=True)
+def gpu_ready():
+    """Initialise Blender's ``gpu`` module once (an EEVEE render the first time)."""
+    from spectral_materials.blender.gpu_context import ensure_gpu
+
+    ensure_gpu()
+
+
+@pytest.fixture(scope="session")
+def factored():
+    """``factored(parameterization, brdf=None, packs=4, cosine_weighted=True)``, cached."""
+    cache: dict = {}
+
+    def get(parameterization: str, brdf: str | None = None, packs: int = 4,
+            cosine_weighted: bool = True):
+        key = (parameterization, brdf, packs, cosine_weighted)
+        if key not in cache:
+            cache[key] = build_model(parameterization, brdf, packs, cosine_weighted)
+        return cache[key]
+
+    return get
