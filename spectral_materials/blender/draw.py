@@ -15,6 +15,7 @@ and on unregister, which also remove the handler.
 
 from __future__ import annotations
 
+import atexit
 from dataclasses import dataclass, field
 
 import bpy
@@ -125,28 +126,36 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
     light_list, lights_key = lights or scene_lights.drawn_lights(scene, toward_viewer)
     display = display or scene_lights.display_settings(scene)
     vp = np.asarray(view_projection, dtype=np.float64)
+    work = []                     # (object, batches, {slot: GPUMaterial or None})
     for obj in drawable_objects(scene):
         slots = {i: gpu_material(s.material) if s.material is not None else None
                  for i, s in enumerate(obj.material_slots)}
-        drawn_here = any(r is not None for r in slots.values())
-        if not drawn_here and not occluders:
+        if not occluders and not any(r is not None for r in slots.values()):
             continue
         batches = mesh_batches.object_batches(obj, depsgraph)
-        if batches is None:
-            continue
+        if batches is not None:
+            work.append((obj, batches, slots))
+    if occluders:
+        # Depth first, so that geometry we do not shade hides what lies behind it.
+        shader = _occluder_shader()
+        gpu.state.color_mask_set(False, False, False, False)
+        try:
+            for obj, batches, slots in work:
+                shader.bind()
+                shader.uniform_float("mvp", _column_major(vp @ np.array(obj.matrix_world)))
+                for slot, batch in batches.batches.items():
+                    if slots.get(slot) is None:
+                        batch.draw(shader)
+        finally:
+            gpu.state.color_mask_set(True, True, True, True)
+    for obj, batches, slots in work:
         model_matrix = np.array(obj.matrix_world)
         normal_matrix = np.linalg.inv(model_matrix).T if abs(np.linalg.det(model_matrix)) \
             > 1e-30 else np.eye(4)
+        drawn_here = False
         for slot, batch in batches.batches.items():
             resource = slots.get(slot)
             if resource is None:
-                if occluders:
-                    shader = _occluder_shader()
-                    shader.bind()
-                    shader.uniform_float("mvp", _column_major(vp @ model_matrix))
-                    gpu.state.color_mask_set(False, False, False, False)
-                    batch.draw(shader)
-                    gpu.state.color_mask_set(True, True, True, True)
                 continue
             key = resource.key(light_list, output=output)
             shader = shaders.get_shader(key)
@@ -156,6 +165,7 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
             _set_matrix(shader, "model_matrix", model_matrix)
             _set_matrix(shader, "normal_matrix", normal_matrix)
             batch.draw(shader)
+            drawn_here = True
             stats.variants.add(key)
             stats.triangles += len(batches.arrays.triangles[slot])
             name = obj.material_slots[slot].material.name
@@ -269,6 +279,12 @@ def reset() -> None:
     shaders.clear_cache()
     global _OCCLUDER_SHADER
     _OCCLUDER_SHADER = None
+
+
+# GPU objects freed after Blender has torn its GPU context down crash the process at
+# exit (seen with the bpy module): drop them first. atexit runs this before the
+# exit handler Blender registered when bpy was imported.
+atexit.register(reset)
 
 
 @persistent
