@@ -4,8 +4,11 @@
 Writes ``out/demo.blend`` and ``out/report.md`` (with ``out/images/``): the scene
 analysis (basis size, what was left out), and per material the error against time
 table, the error-against-packs plot the panel shows, and sphere pictures under D65
-and FL2 (5 nm reference | stored factors | ΔE94) at 60° incidence. Everything is
-measured in this run; the report says how.
+and FL2 (5 nm reference | stored factors | ΔE94) at 60° incidence; then the GPU
+section (``demo_gpu.py``): the scene drawn offscreen by the spectral shaders next to
+its 5 nm reference and ΔE94 map, the protocol sphere per material through the GPU,
+and the frame time against an RGB baseline. Everything is measured in this run; the
+report says how.
 """
 
 from __future__ import annotations
@@ -22,8 +25,10 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "scripts"))
 
 import bpy  # noqa: E402
+import demo_gpu  # noqa: E402  (scripts/, next to this file)
 
 from spectral_materials import blender as addon  # noqa: E402
 from spectral_materials.blender import jobs, sources, storage  # noqa: E402
@@ -177,7 +182,8 @@ def reload_check(blend: Path, expected: dict, scratch: Path) -> dict:
 
 
 def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
-                 build_seconds: float, total_seconds: float, theta_cells: int) -> None:
+                 build_seconds: float, total_seconds: float, theta_cells: int,
+                 gpu_lines: list[str]) -> None:
     basis = analysis["basis"]
     lines = [
         "# Spectral Materials demo report",
@@ -234,6 +240,7 @@ def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
                   f"![{name} error against packs]({fig['plot']})", "",
                   "ΔE94 against packs, as the Material panel shows it (orange: mean; blue: "
                   "95th percentile).", ""]
+    lines += gpu_lines
     lines += [f"Scene built in {build_seconds:.1f} s; whole demo {total_seconds:.1f} s.", ""]
     path.write_text("\n".join(lines))
 
@@ -276,10 +283,18 @@ def main() -> int:
         expected[name] = storage.load_factored(material).evaluate(wi, wo)
     reload = reload_check(blend, expected, out)
     (out / "reload.npz").unlink(missing_ok=True)
+    scene = bpy.context.scene
+    gpu_scene = demo_gpu.scene_figure(scene, out / "images" / "gpu_scene.png")
+    spheres = demo_gpu.sphere_table(list(analysis["factored"]))
+    frame = demo_gpu.frame_time(scene)
     total = time.perf_counter() - start
-    write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells)
+    write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells,
+                 demo_gpu.report_lines(gpu_scene, spheres, frame))
     (out / "report.json").write_text(json.dumps(
         {"analysis": analysis, "figures": figures, "reload_bit_identical": reload,
+         "gpu_scene": gpu_scene, "frame": frame,
+         "gpu_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
+                         for k, v in spheres.items()],
          "seconds": total}, indent=2, default=str))
     print(f"wrote {blend}, {out / 'report.md'} in {total:.1f} s; reopened bit-identical: "
           f"{all(reload.values())}")

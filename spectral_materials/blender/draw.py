@@ -117,8 +117,12 @@ def drawable_objects(scene, view_layer=None) -> list:
 
 def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
                  output: str = "DISPLAY", display: DisplaySettings | None = None,
-                 lights: tuple | None = None, occluders: bool = True) -> DrawStats:
-    """Draw the scene's factored materials into the bound framebuffer (depth test on)."""
+                 lights: tuple | None = None, occluders: bool = True,
+                 only: set[str] | None = None) -> DrawStats:
+    """Draw the scene's factored materials into the bound framebuffer (depth test on).
+
+    ``only`` names the materials to shade; the others are then drawn as occluders.
+    """
     import gpu
 
     stats = DrawStats()
@@ -128,8 +132,9 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
     vp = np.asarray(view_projection, dtype=np.float64)
     work = []                     # (object, batches, {slot: GPUMaterial or None})
     for obj in drawable_objects(scene):
-        slots = {i: gpu_material(s.material) if s.material is not None else None
-                 for i, s in enumerate(obj.material_slots)}
+        slots = {i: gpu_material(s.material)
+                 if s.material is not None and (only is None or s.material.name in only)
+                 else None for i, s in enumerate(obj.material_slots)}
         if not occluders and not any(r is not None for r in slots.values()):
             continue
         batches = mesh_batches.object_batches(obj, depsgraph)
@@ -195,7 +200,8 @@ def camera_view(camera, width: int, height: int, depsgraph) -> tuple[np.ndarray,
 
 
 def render_camera(scene, *, width: int | None = None, height: int | None = None,
-                  output: str = "XYZ", camera=None) -> tuple[np.ndarray, DrawStats]:
+                  output: str = "XYZ", camera=None, only: set[str] | None = None
+                  ) -> tuple[np.ndarray, DrawStats]:
     """Draw the scene from its camera offscreen: ((height, width, 4) float32, stats).
 
     Row 0 is the bottom. Size defaults to the scene's render resolution. Raises
@@ -210,7 +216,8 @@ def render_camera(scene, *, width: int | None = None, height: int | None = None,
     depsgraph = bpy.context.evaluated_depsgraph_get()
     view_projection, view = camera_view(camera, width, height, depsgraph)
     with Target(width, height) as target:
-        stats = draw_objects(scene, depsgraph, view_projection, view, output=output)
+        stats = draw_objects(scene, depsgraph, view_projection, view, output=output,
+                             only=only)
         image = target.read()
     if not stats.objects:
         raise ValueError(f"Scene '{scene.name}': no visible object has a factored spectral "

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import spectra
 from .factored import FactoredBRDF
 from .lights import SpectralLight
 
@@ -120,14 +121,8 @@ def light_texels(model: FactoredBRDF, lights: list[SpectralLight], *,
     return texels.astype(np.float32)
 
 
-def shade_xyz(model: FactoredBRDF, points: np.ndarray, normals: np.ndarray,
-              tangents: np.ndarray, view: View, lights: list[SpectralLight],
-              *, two_sided: bool = True) -> np.ndarray:
-    """Linear XYZ (N, 3) leaving each point toward the viewer: the shaders' maths in float64.
-
-    ``two_sided`` flips normals that face away from the viewer, as the mesh
-    shader does.
-    """
+def _shade(points, normals, tangents, view: View, lights, reflect, two_sided: bool):
+    """Σ_lights irradiance · reflect(wi, wo, light) over lit points (the shaders' loop)."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     normals = _normalize(np.asarray(normals, dtype=np.float64).reshape(-1, 3),
                          np.array([0.0, 0.0, 1.0]))
@@ -141,14 +136,44 @@ def shade_xyz(model: FactoredBRDF, points: np.ndarray, normals: np.ndarray,
         wi_world, irradiance = light.incidence(points)
         wi = to_local(frame, wi_world)
         lit = (irradiance > 0) & (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        if not lit.any():
-            continue
-        weights = light.weights(model.wavelengths, model.basis)
-        reflected = model.coefficients(wi[lit], wo[lit])
-        if not model.cosine_weighted:
-            reflected = reflected * wi[lit, 2:3]
-        xyz[lit] += irradiance[lit, None] * (reflected @ weights)
+        if lit.any():
+            xyz[lit] += irradiance[lit, None] * reflect(wi[lit], wo[lit], light)
     return xyz
+
+
+def shade_xyz(model: FactoredBRDF, points: np.ndarray, normals: np.ndarray,
+              tangents: np.ndarray, view: View, lights: list[SpectralLight],
+              *, two_sided: bool = True) -> np.ndarray:
+    """Linear XYZ (N, 3) leaving each point toward the viewer: the shaders' maths in float64.
+
+    ``two_sided`` flips normals that face away from the viewer, as the mesh
+    shader does.
+    """
+    def reflect(wi, wo, light):
+        reflected = model.coefficients(wi, wo)
+        if not model.cosine_weighted:
+            reflected = reflected * wi[:, 2:3]
+        return reflected @ light.weights(model.wavelengths, model.basis)
+
+    return _shade(points, normals, tangents, view, lights, reflect, two_sided)
+
+
+def reference_shade_xyz(brdf, points: np.ndarray, normals: np.ndarray, tangents: np.ndarray,
+                        view: View, lights: list[SpectralLight], *, two_sided: bool = True,
+                        chunk: int = 16384) -> np.ndarray:
+    """The same scene with the exact BRDF ``brdf(wi, wo, λ)``, 5 nm Riemann sums (PROTOCOL.md)."""
+    wl = spectra.WAVELENGTHS_REFERENCE
+
+    def reflect(wi, wo, light):
+        weights = light.weights(wl, None)
+        out = np.empty((len(wi), 3))
+        for begin in range(0, len(wi), chunk):
+            sl = slice(begin, begin + chunk)
+            f = np.asarray(brdf(wi[sl], wo[sl], wl), dtype=np.float64)
+            out[sl] = (f * wi[sl, 2:3]) @ weights
+        return out
+
+    return _shade(points, normals, tangents, view, lights, reflect, two_sided)
 
 
 def sphere_pixels(size: int) -> tuple[np.ndarray, np.ndarray]:
