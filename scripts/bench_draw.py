@@ -306,19 +306,21 @@ class Bench:
 
         warm_s, covered, lit = self.warm(bind_spectral)
         _, base_covered, _ = self.warm(bind_baseline)
-        spectral, base = [], []
-        for rep in range(self.reps):
-            order = ((base, bind_baseline), (spectral, bind_spectral))
-            for times, bind in order if rep % 2 == 0 else order[::-1]:
-                times.append(self.seconds_per_frame(bind))
+        # B S B S … S B: each spectral timing has a baseline timing on either side.
+        base = [self.seconds_per_frame(bind_baseline)]
+        spectral = []
+        for _ in range(self.reps):
+            spectral.append(self.seconds_per_frame(bind_spectral))
+            base.append(self.seconds_per_frame(bind_baseline))
+        paired = [s / (0.5 * (b0 + b1)) for s, b0, b1 in zip(spectral, base[:-1], base[1:])]
         ms = 1e3 * float(np.median(spectral))
         base_ms = 1e3 * float(np.median(base))
         return {
             "layout": layout, "resolution": list(LAYOUTS[layout]), "packs": packs,
             "terms": model.terms, "lights": len(lights),
             "light_kinds": [light.name for light in lights], "mode": MODES[precontract],
-            "ms": ms, "fps": 1e3 / ms, "baseline_ms": base_ms, "ratio": ms / base_ms,
-            "paired_ratios": [s / b for s, b in zip(spectral, base)],
+            "ms": ms, "fps": 1e3 / ms, "baseline_ms": base_ms,
+            "ratio": float(np.median(paired)), "paired_ratios": paired,
             "spectral_seconds": spectral, "baseline_seconds": base,
             "first_frame_seconds": warm_s, "covered_pixels": covered,
             "baseline_covered_pixels": base_covered, "lit_pixels": lit,
@@ -383,42 +385,54 @@ def fit_line(x, y) -> tuple[float, float]:
 
 
 def summaries(rows: list[dict], light_packs: list[int]) -> dict:
+    """Lines through the sweeps: the cost of one more pack, and of one more light.
+
+    Slopes are fitted to ms/frame (this machine's absolute cost) and to the ratio
+    (the cost in baseline frames, which the machine's load cancels out of).
+    """
     out: dict = {"packs": [], "lights": []}
     for layout, precontract in SERIES:
         series = sorted((r for r in rows if r["layout"] == layout and r["lights"] == 1
                          and r["mode"] == MODES[precontract]), key=lambda r: r["packs"])
         if len(series) < 2:
             continue
-        slope, intercept = fit_line([r["packs"] for r in series], [r["ms"] for r in series])
-        base = float(np.median([r["baseline_ms"] for r in series]))
+        packs = [r["packs"] for r in series]
+        slope, intercept = fit_line(packs, [r["ms"] for r in series])
+        ratio_slope, ratio_intercept = fit_line(packs, [r["ratio"] for r in series])
         pixels = float(np.median([r["covered_pixels"] for r in series]))
-        scaling = {p: next((r["ms"] for r in series if r["packs"] == p), None)
-                   for p in PAPER_FPS}
         out["packs"].append({
             "layout": layout, "mode": MODES[precontract], "ms_per_pack": slope,
-            "ms_at_0_packs": intercept, "baseline_ms": base,
-            "baseline_frames_per_pack": slope / base,
-            "ns_per_pixel_pack": slope * 1e6 / pixels,
-            "ms_at": {str(p): v for p, v in scaling.items()}})
+            "ms_at_0_packs": intercept,
+            "baseline_ms": float(np.median([r["baseline_ms"] for r in series])),
+            "baseline_frames_per_pack": ratio_slope, "ratio_at_0_packs": ratio_intercept,
+            "ns_per_pixel_pack": slope * 1e6 / pixels})
+    by_packs = {}
     for packs in light_packs:
         series = sorted((r for r in rows if r["layout"] == "io_iso" and r["packs"] == packs
                          and r["mode"] == "precontract"), key=lambda r: r["lights"])
         if len({r["lights"] for r in series}) < 2:
             continue
-        slope, intercept = fit_line([r["lights"] for r in series], [r["ms"] for r in series])
-        base_slope, _ = fit_line([r["lights"] for r in series],
-                                 [r["baseline_ms"] for r in series])
+        lights = [r["lights"] for r in series]
+        slope, intercept = fit_line(lights, [r["ms"] for r in series])
+        base_slope, _ = fit_line(lights, [r["baseline_ms"] for r in series])
+        ratio_slope, _ = fit_line(lights, [r["ratio"] for r in series])
+        by_packs[packs] = (slope, ratio_slope)
         out["lights"].append({"layout": "io_iso", "mode": "precontract", "packs": packs,
                               "ms_per_light": slope, "ms_at_0_lights": intercept,
                               "baseline_ms_per_light": base_slope,
-                              "ms_per_light_per_pack": slope / packs})
-    paper = []
-    for p, fps in PAPER_FPS.items():
-        paper.append({"packs": p, "paper_fps": fps, "paper_ms": 1e3 / fps,
-                      "paper_relative_to_4": PAPER_FPS[4] / fps})
+                              "ratio_per_light": ratio_slope})
+    if len(by_packs) >= 2:
+        (p0, (s0, r0)), (p1, (s1, r1)) = sorted(by_packs.items())[0], \
+            sorted(by_packs.items())[-1]
+        out["per_pack_per_light"] = {"from_packs": [p0, p1],
+                                     "ms": (s1 - s0) / (p1 - p0),
+                                     "baseline_frames": (r1 - r0) / (p1 - p0)}
     x = list(PAPER_FPS)
     slope, intercept = fit_line(x, [1e3 / PAPER_FPS[p] for p in x])
-    out["paper"] = {"rows": paper, "ms_per_pack": slope, "ms_at_0_packs": intercept}
+    out["paper"] = {"ms_per_pack": slope, "ms_at_0_packs": intercept,
+                    "rows": [{"packs": p, "fps": fps, "ms": 1e3 / fps,
+                              "relative_to_4": PAPER_FPS[4] / fps}
+                             for p, fps in PAPER_FPS.items()]}
     return out
 
 
