@@ -479,7 +479,7 @@ def paper_table(results: dict) -> list[str]:
             if r is None:
                 line += " – | – | – | – |"
                 continue
-            rel = f"{r['ms'] / r4['ms']:.2f}" if r4 else "–"
+            rel = f"{r['ratio'] / r4['ratio']:.2f}" if r4 else "–"
             line += f" {r['ms']:.1f} | {r['fps']:.2f} | {rel} | {r['ratio']:.1f} |"
         lines.append(line)
     return lines
@@ -495,7 +495,9 @@ def write_markdown(results: dict, path: Path) -> None:
         "# Draw benchmark", "",
         f"Machine: `{m['renderer']}` ({m['vendor']}, {m['version']}, {m['backend']} backend; "
         f"{m['cpu_count']} CPU cores, Blender {m['blender']}). Date: {results['date']}. "
-        f"Command: `{results['command']}` ({results['seconds']:.0f} s in all).",
+        f"Command: `{results['command']}` ({results['seconds']:.0f} s in all). Load "
+        f"average (1 min) {m['load_start']:.1f} at the start, {m['load_end']:.1f} at the end: "
+        "other jobs share these cores, hence the ratios.",
         "",
         f"A smooth UV sphere ({SEGMENTS} segments × {RINGS} rings, "
         f"{s['triangles']} triangles, {fmt_bytes(s['vertex_bytes'])} vertex + index bytes) "
@@ -508,13 +510,15 @@ def write_markdown(results: dict, path: Path) -> None:
         "",
         "Each frame is a clear and one draw; a frame time is the wall time of "
         f"{s['frames']} frames ended by a 1-pixel read-back (which waits for the GPU), "
-        f"divided by {s['frames']}; the figure is the median of {s['reps']} repetitions, "
+        f"divided by {s['frames']}; ms/frame is the median of {s['reps']} repetitions, "
         "after one warm-up frame that compiles the variant. **Baseline**: an RGB "
         "Blinn–Phong shader (`glsl/baseline_blinn_phong_*.glsl`, suns and 1/(4πr²) point "
         "lights, spots and areas drawn as points) with as many lights as the row, drawing "
-        "the same batch into the same target; its repetitions alternate with the spectral "
-        "ones, so **ratio** = spectral ms / baseline ms compares like with like on this "
-        "noisy machine. The absolute times are this machine's only (llvmpipe is a CPU "
+        "the same batch into the same target, timed before and after every spectral "
+        "timing (B S B S … S B). **ratio** = median over the repetitions of the spectral "
+        "time over the mean of the two baseline times around it, so it compares like with "
+        "like while the machine's load changes; it is not exactly the ratio of the two "
+        "medians shown. The absolute times are this machine's only (llvmpipe is a CPU "
         "rasteriser: they are not GPU times).",
         "",
         "Modes: **precontract** (the add-on's default) folds the spectral factor into the "
@@ -537,8 +541,9 @@ def write_markdown(results: dict, path: Path) -> None:
                   "the spectral shader no pack work there; the baseline shades it anyway.",
                   ""]
     lines += ["## Cost per pack", "",
-              "Measured: least-squares line of ms/frame against packs at one light; "
-              "ns per pixel per pack = slope / covered pixels.", "",
+              "Measured: least-squares lines against packs at one light, of ms/frame (this "
+              "machine's cost) and of the ratio (the cost in baseline frames); ns per pixel "
+              "per pack = ms slope / covered pixels.", "",
               "| layout | mode | ms/frame per pack | ms/frame at 0 packs | baseline ms/frame | "
               "baseline frames per pack | ns per pixel per pack |",
               "|---|---|---|---|---|---|---|"]
@@ -551,12 +556,19 @@ def write_markdown(results: dict, path: Path) -> None:
               f"pack, {paper['ms_at_0_packs']:.1f} ms at 0 packs (line through its three "
               "points).", ""]
     if summ["lights"]:
-        lines += ["| packs | ms/frame per light | baseline ms/frame per light | "
-                  "ms/frame per light per pack |", "|---|---|---|---|"]
+        lines += ["Lights (io_iso, precontract): lines against the light count.", "",
+                  "| packs | ms/frame per light | baseline ms/frame per light | "
+                  "baseline frames per light |", "|---|---|---|---|"]
         for f in summ["lights"]:
             lines.append(f"| {f['packs']} | {f['ms_per_light']:.1f} | "
-                         f"{f['baseline_ms_per_light']:.2f} | "
-                         f"{f['ms_per_light_per_pack']:.2f} |")
+                         f"{f['baseline_ms_per_light']:.2f} | {f['ratio_per_light']:.2f} |")
+        per = summ.get("per_pack_per_light")
+        if per:
+            a, b = per["from_packs"]
+            lines += ["", f"Per pack per light, from the difference of the two lines "
+                      f"({a} and {b} packs): {per['ms']:.2f} ms/frame, "
+                      f"{per['baseline_frames']:.2f} baseline frames (compare the per-pack "
+                      "slope at one light above)."]
         lines.append("")
     lines += [
         "Counted from the GLSL (per pack and per light; d angular axes, m = "
@@ -579,28 +591,33 @@ def write_markdown(results: dict, path: Path) -> None:
     lines += [
         "",
         "Per light, not per pack: the light's incidence (2–3 light texels, a normalise, the "
-        "falloff), wi into the shading frame (3 dot3), the parameterisation (io_iso: two "
-        "`atan` pairs and a `mod`; hd: half vector, two `atan` pairs, 2 sin/cos pairs and "
+        "falloff), wi into the shading frame (3 dot3), the parameterisation (io_iso: "
+        "4 `atan`, 3 `mod`; hd: the half vector, 4 `atan`, 2 `mod`, 2 sin/cos pairs and "
         "the rotation) and d axis lookups (clamp or `mod`, a divide, `sqrt` on warped "
         "axes, `floor`, index selects). Per pixel: the frame (normalise, Gram–Schmidt, "
         "cross) and the display pipeline (2 mat3, tone map, sRGB `pow`).",
         "",
         "Against the paper: its shader read 1 hardware-filtered texel per axis per pack "
-        "(the texture unit interpolates) plus the spectral factor, so d + the spectral "
-        "fetches and d − 1 vec4 multiplies per pack. Ours reads 2 unfiltered texels per "
-        "axis and interpolates in ALU (d extra fetches and d mix4 per pack), so that the "
-        "GPU agrees exactly with the Python lookup `FactoredBRDF.coefficients`: hardware "
-        "filtering computes its weights in 8-bit fixed point (1/256 steps), an error the "
-        "tests would see; precontraction gets the spectral side back down to 3 fetches. "
-        "On a GPU with free bilinear filtering the paper's form is roughly twice as cheap "
-        "in angular fetches; on llvmpipe, where filtering is done in software anyway, the "
-        "difference is smaller.",
+        "(the texture unit interpolates) plus the spectral factor: d angular fetches and "
+        "no interpolation ALU per pack. Ours reads 2 unfiltered texels per axis and "
+        "interpolates in ALU (d more fetches and d mix4 per pack) so that the GPU agrees "
+        "with the Python lookup `FactoredBRDF.coefficients` to float32 rounding: a "
+        "hardware linear filter rounds its weights to 8 bits (glsl/factor_packs.glsl). "
+        f"Precontraction takes the spectral side from m to 3 fetches per pack, saving "
+        f"m − 3 = {BASIS_SIZE - 3}, more than the d extra fetches of the exact "
+        "interpolation: if the paper's spectral factor of a pack took m RGBA texels, as "
+        f"ours does in coefficients mode, it read d + m = {3 + BASIS_SIZE} (io_iso) or "
+        f"{4 + BASIS_SIZE} (hd) texels per pack where ours, precontracted, reads "
+        f"{counts['rows'][0]['fetches']} or {counts['rows'][2]['fetches']}; "
+        "its filtered fetches cost the texture unit more than a `texelFetch` does, and "
+        "our d mix4 are ALU it did not spend.",
         "",
         "## Against the factor-pack paper", "",
         "The paper's frame rates were measured on a GeForce GTX 280 (2008) at about 1 M "
         "pixels; ours on the machine above. **Different hardware**: compare the scaling "
         "t(P)/t(4) and the ratios, not the absolute times. The paper gives no baseline; "
-        "our ratio is against the Blinn–Phong baseline of the same run.", "",
+        "our ratio is against the Blinn–Phong baseline of the same run, and our t(P)/t(4) "
+        "is ratio(P)/ratio(4), so that the machine's changing load cancels out.", "",
         *paper_table(results), "",
         "## Memory", "",
         "| layout | packs | mode | factor texture bytes | light texture bytes per light |",
@@ -629,6 +646,7 @@ def machine() -> dict:
 
     return {"renderer": gpu.platform.renderer_get(), "vendor": gpu.platform.vendor_get(),
             "version": gpu.platform.version_get(), "backend": gpu.platform.backend_type_get(),
+            "load_start": os.getloadavg()[0],
             "cpu_count": os.cpu_count(), "blender": bpy.app.version_string,
             "python": platform.python_version(), "numpy": np.__version__}
 
@@ -642,13 +660,13 @@ def main() -> None:
                              "pixels; 400 with --quick)")
     parser.add_argument("--frames", type=int, default=3, help="frames per timing")
     parser.add_argument("--reps", type=int, default=None,
-                        help="repetitions per configuration (median; default 5, 3 with "
+                        help="repetitions per configuration (median; default 4, 3 with "
                              "--quick)")
     parser.add_argument("--device-out", "--out", dest="out", default=str(ROOT / "docs"),
                         help="write bench_draw.md/.json here instead of docs/")
     args = parser.parse_args()
     size = args.size or (400 if args.quick else 1200)
-    reps = args.reps or (3 if args.quick else 5)
+    reps = args.reps or (3 if args.quick else 4)
     packs_grid = QUICK_PACKS if args.quick else PACKS
     lights_grid = QUICK_LIGHTS if args.quick else LIGHTS
     light_packs = QUICK_LIGHT_PACKS if args.quick else LIGHT_PACKS
@@ -682,6 +700,7 @@ def main() -> None:
         finally:
             gpu.state.face_culling_set("NONE")
     seconds = time.perf_counter() - started
+    info["load_end"] = os.getloadavg()[0]
     results = {
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "command": " ".join(["python", "scripts/bench_draw.py", *sys.argv[1:]]),

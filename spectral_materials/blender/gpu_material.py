@@ -94,6 +94,8 @@ class GPUMaterial:
 
     def key(self, lights: list[SpectralLight], *, packs: int | None = None,
             precontract: bool = True, output: str = "XYZ", sphere: bool = False) -> ShaderKey:
+        """The variant drawing this material; ``packs`` limits the texel groups of 4 terms
+        drawn (a model whose pack size is not 4 is truncated with ``truncated`` instead)."""
         model = self.model
         drawn = self.groups if packs is None else max(1, min(int(packs), self.groups))
         return ShaderKey(parameterization=model.grid.parameterization.name,

@@ -17,7 +17,7 @@ from .gpu_material import DisplaySettings, GPUMaterial
 from .shaders import get_shader
 
 MAX_SIZE = 8192
-_QUAD = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]], dtype=np.float32)
+_QUAD = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]], dtype=np.float32)
 
 
 def check_size(width: int, height: int) -> None:
@@ -75,16 +75,19 @@ def render_sphere(model: FactoredBRDF, incidence_deg: float = 0.0,
     """The protocol sphere drawn on the GPU: (size, size, 4) float32, row 0 at the bottom.
 
     XYZ output is linear CIE XYZ, protocol-normalised; alpha is 1 on the sphere and 0
-    off it. ``lights`` replaces the protocol's sun at ``incidence_deg``.
+    off it. ``lights`` replaces the protocol's sun at ``incidence_deg``. ``packs`` draws
+    the model's first packs (``FactoredBRDF.truncated``).
     """
     from gpu_extras.batch import batch_for_shader
 
     if lights is None:
         lights = [protocol_sun(incidence_deg, illuminant, model.wavelengths)]
+    if packs is not None:
+        model = model.truncated(packs)
     material = GPUMaterial(model)
-    shader = get_shader(material.key(lights, packs=packs, precontract=precontract,
-                                     output=output, sphere=True))
-    batch = batch_for_shader(shader, "TRI_FAN", {"corner": _QUAD})
+    shader = get_shader(material.key(lights, precontract=precontract, output=output,
+                                     sphere=True))
+    batch = batch_for_shader(shader, "TRI_STRIP", {"corner": _QUAD})
     light_texture = material.light_texture(lights, precontract)
     with Target(size, size) as target:
         params = material.params(display or DisplaySettings(), target_size=(size, size))

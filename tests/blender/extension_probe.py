@@ -4,11 +4,12 @@
 fresh ``.venv/bin/python`` with ``BLENDER_USER_RESOURCES`` pointing at a temporary
 directory. Before ``import bpy`` it installs a ``sys.meta_path`` finder that lets the
 top-level names the extension bundles (``colour``, ``scipy``, ``imageio``, ``PIL``,
-``typing_extensions``) import only from under that directory, and ``spectral_materials``
-never (the extension imports itself as ``bl_ext.user_default.spectral_materials``): the
-checkout's editable install and the .venv copies are invisible, so whatever runs is the
-installed copy and its wheels. Each stage's outcome goes to RESULT_JSON, which the test
-reads; stages stop at the first failure, whose traceback is recorded.
+``typing_extensions``, ``OpenEXR``) import only from under that directory, and
+``spectral_materials`` never (the extension imports itself as
+``bl_ext.user_default.spectral_materials``): the checkout's editable install and the
+.venv copies are invisible, so whatever runs is the installed copy and its wheels. Each
+stage's outcome goes to RESULT_JSON, which the test reads; stages stop at the first
+failure, whose traceback is recorded.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ REPO = "user_default"
 PKG_ID = "spectral_materials"
 ADDON = f"bl_ext.{REPO}.{PKG_ID}"
 # What the extension bundles as wheels (numpy is Blender's own and stays visible).
-BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions")
+BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions", "OpenEXR")
 NEVER = ("spectral_materials",)
 
 
@@ -161,6 +162,23 @@ def main(zip_path: str, result_path: str) -> int:
         result["modules_after_factor"] = {
             name: getattr(sys.modules.get(name), "__file__", None) for name in BUNDLED
         }
+
+        result["stage"] = "draw"
+        blender_pkg = cls.__module__.rsplit(".", 1)[0]           # …spectral_materials.blender
+        result["glsl_dir"] = str(importlib.import_module(blender_pkg + ".shaders").GLSL_DIR)
+        camera = bpy.data.objects.new("probe camera", bpy.data.cameras.new("probe camera"))
+        camera.location = (0.0, 0.0, 4.0)
+        bpy.context.scene.collection.objects.link(camera)
+        bpy.context.scene.camera = camera
+        mat.spectral.enabled = True
+        start = time.perf_counter()
+        drawn = importlib.import_module(blender_pkg + ".render_output").write_scene_images(
+            bpy.context.scene, Path(result_path).with_name("probe_frame"), width=32, height=24)
+        times["draw"] = time.perf_counter() - start
+        result["draw_objects"] = drawn["objects"]
+        result["draw_paths"] = drawn["paths"]
+        result["draw_covered"] = float(drawn["xyz"][..., 3].sum())
+        result["openexr_origin"] = getattr(sys.modules.get("OpenEXR"), "__file__", None)
         result["stage"] = "done"
     except BaseException:  # noqa: BLE001 - recorded for the test, which reports it
         result["error"] = traceback.format_exc()

@@ -27,7 +27,7 @@ BUILD = ROOT / "scripts" / "build_extension"
 PROBE = Path(__file__).with_name("extension_probe.py")
 VENV_PYTHON = ROOT / ".venv" / "bin" / "python"
 ADDON = "bl_ext.user_default.spectral_materials"
-BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions")
+BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions", "OpenEXR")
 STAGES = ("start", "import bpy", "read_homefile", "install", "enabled", "bundled wheels",
           "operator", "factor", "done")
 
@@ -155,3 +155,12 @@ def test_installed_operator_factors_a_material(probe):
     site = probe["site_packages"]
     assert under(probe["modules_after_factor"]["colour"], site)
     assert under(probe["modules_after_factor"]["scipy"], site)
+
+
+def test_installed_extension_draws_through_its_glsl_and_writes_exr(probe):
+    require(probe, "done")
+    package = Path(probe["user_resources"], "extensions", "user_default", "spectral_materials")
+    assert Path(probe["glsl_dir"]) == package / "glsl"
+    assert probe["draw_objects"] == ["probe"] and probe["draw_covered"] > 0
+    assert under(probe["openexr_origin"], probe["site_packages"])
+    assert all(Path(p).is_file() for p in probe["draw_paths"].values())

@@ -11,10 +11,11 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from gpu_helpers import MAX_DE94, PARAMETERIZATIONS, SIZE, delta_e, protocol_pair
+from gpu_helpers import MAX_DE94, PARAMETERIZATIONS, RESOLUTIONS, SIZE, WL, delta_e, protocol_pair
 
 from spectral_materials.blender.offscreen import render_sphere
-from spectral_materials.core import shading
+from spectral_materials.core import models, shading
+from spectral_materials.core.factor import factor_brdf
 
 #: (incidence in degrees, illuminant): each illuminant at least once.
 CASES = ((0.0, "D65"), (30.0, "A"), (60.0, "FL2"), (80.0, "FL11"))
@@ -101,3 +102,14 @@ def test_packs_beyond_the_model_draw_everything(factored):
     a = render_sphere(model, 30.0, "D65", SIZE)
     b = render_sphere(model, 30.0, "D65", SIZE, packs=99)
     np.testing.assert_array_equal(a, b)
+
+
+def test_packs_truncation_with_pack_size_3():
+    """A known mismatch, kept visible: with pack_size 3, packs=2 draws 8 terms, not 6."""
+    brdf = models.make_model("ashikhmin_shirley", nu=32.0, nv=32.0, diffuse=0.4)
+    model = factor_brdf(brdf, parameterization="hd_iso", resolution=RESOLUTIONS["hd_iso"],
+                        packs=3, pack_size=3, spectral_basis=8, wavelengths=WL)
+    image = render_sphere(model, 30.0, "A", SIZE, packs=2)                  # 6 terms
+    reference, mask = shading.sphere_xyz(model.truncated(2), 30.0, "A", SIZE)
+    de = delta_e(reference[mask], image[mask][:, :3].astype(np.float64), "A")
+    assert de.max() <= MAX_DE94
