@@ -22,7 +22,9 @@ import sys
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import blender_addon  # noqa: E402  (scripts/, next to this file)
 
 
 def _parse(argv: list[str], inside_blender: bool) -> argparse.Namespace:
@@ -48,22 +50,6 @@ def _parse(argv: list[str], inside_blender: bool) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def _addon():
-    """The registered add-on's ``blender`` package (an installed extension or this repo)."""
-    import importlib
-
-    import bpy
-
-    if hasattr(bpy.types, "SPECTRAL_OT_factor_scene"):
-        module = bpy.types.SPECTRAL_OT_factor_scene.__module__     # …blender.operators
-        return importlib.import_module(module.rsplit(".", 1)[0])
-    sys.path.insert(0, str(REPO))
-    from spectral_materials import blender as addon
-
-    addon.register()
-    return addon
-
-
 def run(args: argparse.Namespace, inside_blender: bool) -> int:
     import bpy
 
@@ -71,10 +57,10 @@ def run(args: argparse.Namespace, inside_blender: bool) -> int:
         if not args.blend.is_file():
             print(f"factor_scene: error: {args.blend} does not exist", file=sys.stderr)
             return 1
-        addon = _addon()
+        addon = blender_addon.addon()
         bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
     else:
-        addon = _addon()
+        addon = blender_addon.addon()
     from importlib import import_module
 
     jobs = import_module(addon.__name__ + ".jobs")

@@ -20,7 +20,9 @@ import argparse
 import sys
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import blender_addon  # noqa: E402  (scripts/, next to this file)
 
 
 def _parse(argv: list[str], inside_blender: bool) -> argparse.Namespace:
@@ -35,21 +37,6 @@ def _parse(argv: list[str], inside_blender: bool) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def _addon():
-    import importlib
-
-    import bpy
-
-    if hasattr(bpy.types, "SPECTRAL_OT_factor_scene"):
-        module = bpy.types.SPECTRAL_OT_factor_scene.__module__
-        return importlib.import_module(module.rsplit(".", 1)[0])
-    sys.path.insert(0, str(REPO))
-    from spectral_materials import blender as addon
-
-    addon.register()
-    return addon
-
-
 def run(args: argparse.Namespace, inside_blender: bool) -> int:
     import importlib
 
@@ -59,10 +46,10 @@ def run(args: argparse.Namespace, inside_blender: bool) -> int:
         if not args.blend.is_file():
             print(f"render_spectral: error: {args.blend} does not exist", file=sys.stderr)
             return 1
-        addon = _addon()
+        addon = blender_addon.addon()
         bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
     else:
-        addon = _addon()
+        addon = blender_addon.addon()
     render_output = importlib.import_module(addon.__name__ + ".render_output")
     scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
     if scene is None:
