@@ -10,14 +10,16 @@ the same target with the same number of lights, measured in the same run and
 interleaved with the spectral measurements (shared/PROTOCOL.md, "Time and memory"),
 and as absolute ms/frame on the machine at hand. The texture memory of every
 configuration and the shader's texture fetches and ALU per pack (counted from the
-GLSL) are reported next to the factor-pack paper's figures.
+GLSL) are reported next to the factor-pack paper's figures. A control times the add-on's
+variant against the same one with its pack loop kept rolled (:func:`rolled_shader`),
+since the compiler's unrolling shows in the timings at a few packs.
 
 Writes ``docs/bench_draw.md`` and ``docs/bench_draw.json`` (``--quick``:
 ``bench_draw_quick.*``; ``--device-out DIR`` writes to DIR instead of ``docs/``).
 
 Usage::
 
-    python scripts/bench_draw.py              # the default grid (~5 min on 2 cores, llvmpipe)
+    python scripts/bench_draw.py              # the default grid (~6 min on 2 cores, llvmpipe)
     python scripts/bench_draw.py --quick      # 400 × 400 target, small grid (< 1 min)
     python scripts/bench_draw.py --device-out out/gpu   # on a machine with a GPU
 """
@@ -56,6 +58,9 @@ LIGHT_PACKS = [4, 22]
 QUICK_PACKS = [1, 4, 22]
 QUICK_LIGHTS = [1, 2, 4]
 QUICK_LIGHT_PACKS = [4]
+#: Packs of the rolled-loop control (io_iso, precontract, 1 light): see rolled_shader.
+ROLLED_PACKS = [2, 4, 6, 8]
+QUICK_ROLLED_PACKS = [4]
 #: The factor-pack paper's frame rates on ~1 M pixels (GeForce GTX 280), by packs.
 PAPER_FPS = {4: 126.0, 22: 35.0, 48: 18.0}
 LAYOUTS = {"io_iso": (90, 180, 90), "hd": (90, 45, 90, 45)}
@@ -264,12 +269,13 @@ class Bench:
         """Wait for the GPU: a 1-pixel read-back cannot return before the frame is done."""
         self.target.framebuffer.read_color(0, 0, 1, 1, 4, 0, "FLOAT")
 
-    def seconds_per_frame(self, bind) -> float:
+    def seconds_per_frame(self, bind, frames: int | None = None) -> float:
+        frames = frames or self.frames
         start = time.perf_counter()
-        for _ in range(self.frames):
+        for _ in range(frames):
             self.frame(bind)
         self.sync()
-        return (time.perf_counter() - start) / self.frames
+        return (time.perf_counter() - start) / frames
 
     def warm(self, bind) -> tuple[float, int, int]:
         """One frame (compiles the variant); (seconds, covered pixels, lit pixels)."""
@@ -305,20 +311,26 @@ class Bench:
             return baseline.shader
 
         warm_s, covered, lit = self.warm(bind_spectral)
-        _, base_covered, _ = self.warm(bind_baseline)
-        # B S B S … S B: each spectral timing has a baseline timing on either side.
-        base = [self.seconds_per_frame(bind_baseline)]
+        base_warm, base_covered, _ = self.warm(bind_baseline)
+        # B S B S … S B: each spectral timing has a baseline timing on either side,
+        # long enough (up to 4× the frames) to span about half the spectral timing,
+        # so that both see the same share of the other jobs on the machine.
+        base_frames = int(np.clip(round(0.5 * self.frames * warm_s / base_warm),
+                                  self.frames, 4 * self.frames))
+        base = [self.seconds_per_frame(bind_baseline, base_frames)]
         spectral = []
         for _ in range(self.reps):
             spectral.append(self.seconds_per_frame(bind_spectral))
-            base.append(self.seconds_per_frame(bind_baseline))
+            base.append(self.seconds_per_frame(bind_baseline, base_frames))
         paired = [s / (0.5 * (b0 + b1)) for s, b0, b1 in zip(spectral, base[:-1], base[1:])]
         ms = 1e3 * float(np.median(spectral))
         base_ms = 1e3 * float(np.median(base))
         return {
             "layout": layout, "resolution": list(LAYOUTS[layout]), "packs": packs,
             "terms": model.terms, "lights": len(lights),
-            "light_kinds": [light.name for light in lights], "mode": MODES[precontract],
+            "light_kinds": [light.name for light in lights],
+            "mode": MODES[precontract],
+            "baseline_frames": base_frames,
             "ms": ms, "fps": 1e3 / ms, "baseline_ms": base_ms,
             "ratio": float(np.median(paired)), "paired_ratios": paired,
             "spectral_seconds": spectral, "baseline_seconds": base,
@@ -328,6 +340,68 @@ class Bench:
             "factor_texture_bytes": int(material.nbytes), "light_texture_bytes": light_bytes,
             "texture_bytes": int(material.nbytes) + light_bytes,
         }
+
+
+def compare_rolled(bench: Bench, layout: str, packs: int) -> dict | None:
+    """The add-on's variant (1 light, precontract) against :func:`rolled_shader`'s.
+
+    The two are timed alternately, U R U R … U, on the same material and target;
+    ``unrolled_over_rolled`` is the median of U over the mean of the R on either side.
+    """
+    model = synthetic_model(layout, packs)
+    material = GPUMaterial(model)
+    lights = make_lights(1)
+    key = material.key(lights, precontract=True, output="DISPLAY")
+    rolled = rolled_shader(key)
+    if rolled is None:
+        return None
+    unrolled = shaders.get_shader(key)
+    light_texture = material.light_texture(lights, True)
+    params = material.params(DisplaySettings(), view_origin=VIEW_ORIGIN, view_projection=bench.vp)
+
+    def binder(shader):
+        def bind():
+            material.bind(shader, light_texture, params)
+            return shader
+        return bind
+
+    bind_unrolled, bind_rolled = binder(unrolled), binder(rolled)
+    bench.warm(bind_unrolled)
+    bench.warm(bind_rolled)
+    times_unrolled = [bench.seconds_per_frame(bind_unrolled)]
+    times_rolled = []
+    for _ in range(bench.reps):
+        times_rolled.append(bench.seconds_per_frame(bind_rolled))
+        times_unrolled.append(bench.seconds_per_frame(bind_unrolled))
+    paired = [0.5 * (u0 + u1) / r for r, u0, u1 in
+              zip(times_rolled, times_unrolled[:-1], times_unrolled[1:])]
+    return {"layout": layout, "packs": packs, "lights": 1, "mode": "precontract",
+            "unrolled_ms": 1e3 * float(np.median(times_unrolled)),
+            "rolled_ms": 1e3 * float(np.median(times_rolled)),
+            "unrolled_over_rolled": float(np.median(paired)), "paired": paired,
+            "unrolled_seconds": times_unrolled, "rolled_seconds": times_rolled}
+
+
+def rolled_shader(key: shaders.ShaderKey):
+    """The variant ``key`` with the pack loop's bound unknown to the compiler.
+
+    ``p < SM_PACKS + sm.misc.w`` (misc.w is 0) stops the compiler unrolling the loop
+    over packs; everything else is the add-on's shader. A control for the cost of
+    unrolling on this machine; None where the GLSL has no such loop any more.
+    """
+    import gpu
+
+    original = shaders.fragment_source
+    source = original()
+    patched = source.replace("p < SM_PACKS", "p < SM_PACKS + sm.misc.w")
+    if patched == source:
+        return None
+    shaders.fragment_source = lambda: patched   # create_info reads it; put back below
+    try:
+        info = shaders.create_info(key)
+    finally:
+        shaders.fragment_source = original
+    return gpu.shader.create_from_info(info)
 
 
 # ------------------------------------------------------------ per-pack counts
@@ -405,6 +479,7 @@ def summaries(rows: list[dict], light_packs: list[int]) -> dict:
             "ms_at_0_packs": intercept,
             "baseline_ms": float(np.median([r["baseline_ms"] for r in series])),
             "baseline_frames_per_pack": ratio_slope, "ratio_at_0_packs": ratio_intercept,
+            "fixed_cost_in_packs": ratio_intercept / ratio_slope,
             "ns_per_pixel_pack": slope * 1e6 / pixels})
     by_packs = {}
     for packs in light_packs:
@@ -430,6 +505,7 @@ def summaries(rows: list[dict], light_packs: list[int]) -> dict:
     x = list(PAPER_FPS)
     slope, intercept = fit_line(x, [1e3 / PAPER_FPS[p] for p in x])
     out["paper"] = {"ms_per_pack": slope, "ms_at_0_packs": intercept,
+                    "fixed_cost_in_packs": intercept / slope,
                     "rows": [{"packs": p, "fps": fps, "ms": 1e3 / fps,
                               "relative_to_4": PAPER_FPS[4] / fps}
                              for p, fps in PAPER_FPS.items()]}
@@ -485,6 +561,46 @@ def paper_table(results: dict) -> list[str]:
     return lines
 
 
+def rolled_section(results: dict) -> list[str]:
+    """The rolled-loop control: the add-on's variant against the same with a rolled loop."""
+    rolled = results.get("rolled") or []
+    if not rolled:
+        return []
+    lines = ["### The pack loop, unrolled or not", "",
+             "`for (int p = 0; p < SM_PACKS; p++)` has a bound known when the variant is "
+             "compiled, so the compiler may unroll it. Control: the same variant with the "
+             "bound written `SM_PACKS + sm.misc.w` (misc.w is 0, but unknown to the "
+             "compiler), io_iso, precontract, one light, on the same material and target, "
+             "the two timed alternately; unrolled / rolled is the median of each rolled "
+             "timing against the mean of the add-on's timings on either side.", "",
+             "| packs | add-on's shader ms/frame | rolled loop ms/frame | unrolled / rolled |",
+             "|---|---|---|---|"]
+    for r in rolled:
+        lines.append(f"| {r['packs']} | {r['unrolled_ms']:.1f} | {r['rolled_ms']:.1f} | "
+                     f"{r['unrolled_over_rolled']:.2f} |")
+    lines += ["", "Where the two differ the compiler unrolled the loop (Mesa's choice here, "
+              "not the shader's), and the unrolled code ran at a different speed on this "
+              "machine: that is what makes the sweep uneven at a few packs. The work itself "
+              "is linear in the packs, as the rolled column shows.", ""]
+    return lines
+
+
+def unrolled_note(results: dict) -> list[str]:
+    """Our scaling with the 4-pack time of the rolled loop, where the control has it."""
+    control = {r["packs"]: r for r in results.get("rolled") or []}
+    main = {r["packs"]: r for r in results["rows"] if r["layout"] == "io_iso"
+            and r["mode"] == "precontract" and r["lights"] == 1}
+    if 4 not in control or 4 not in main:
+        return []
+    ratio4 = main[4]["ratio"] / control[4]["unrolled_over_rolled"]
+    scaled = ", ".join(f"t({p})/t(4) = {main[p]['ratio'] / ratio4:.2f}" for p in (22, 48)
+                       if p in main)
+    return [f"On this machine the 4-pack variant is {control[4]['unrolled_over_rolled']:.2f}× "
+            "the rolled loop's time (control above), which flattens our t(P)/t(4). Against "
+            f"the rolled 4-pack time, io_iso precontract scales {scaled} (paper: "
+            f"{PAPER_FPS[4] / PAPER_FPS[22]:.2f}, {PAPER_FPS[4] / PAPER_FPS[48]:.2f}).", ""]
+
+
 def write_markdown(results: dict, path: Path) -> None:
     rows = results["rows"]
     s = results["settings"]
@@ -515,8 +631,10 @@ def write_markdown(results: dict, path: Path) -> None:
         "Blinn–Phong shader (`glsl/baseline_blinn_phong_*.glsl`, suns and 1/(4πr²) point "
         "lights, spots and areas drawn as points) with as many lights as the row, drawing "
         "the same batch into the same target, timed before and after every spectral "
-        "timing (B S B S … S B). **ratio** = median over the repetitions of the spectral "
-        "time over the mean of the two baseline times around it, so it compares like with "
+        f"timing (B S B S … S B; {s['frames']} to {4 * s['frames']} baseline frames, so "
+        "that a baseline timing lasts about half a spectral one). **ratio** = median over "
+        "the repetitions of the spectral time over the mean of the two baseline times "
+        "around it, so it compares like with "
         "like while the machine's load changes; it is not exactly the ratio of the two "
         "medians shown. The absolute times are this machine's only (llvmpipe is a CPU "
         "rasteriser: they are not GPU times).",
@@ -540,21 +658,25 @@ def write_markdown(results: dict, path: Path) -> None:
                           shares.items())) + ". A light that does not reach a pixel costs "
                   "the spectral shader no pack work there; the baseline shades it anyway.",
                   ""]
+    lines += rolled_section(results)
     lines += ["## Cost per pack", "",
               "Measured: least-squares lines against packs at one light, of ms/frame (this "
               "machine's cost) and of the ratio (the cost in baseline frames); ns per pixel "
-              "per pack = ms slope / covered pixels.", "",
+              "per pack = ms slope / covered pixels; fixed cost in packs = the ratio line's "
+              "intercept over its slope (what a frame costs besides its packs, counted in "
+              "packs: comparable across hardware).", "",
               "| layout | mode | ms/frame per pack | ms/frame at 0 packs | baseline ms/frame | "
-              "baseline frames per pack | ns per pixel per pack |",
-              "|---|---|---|---|---|---|---|"]
+              "baseline frames per pack | ns per pixel per pack | fixed cost in packs |",
+              "|---|---|---|---|---|---|---|---|"]
     for f in summ["packs"]:
         lines.append(f"| {f['layout']} | {f['mode']} | {f['ms_per_pack']:.2f} | "
                      f"{f['ms_at_0_packs']:.1f} | {f['baseline_ms']:.1f} | "
-                     f"{f['baseline_frames_per_pack']:.2f} | {f['ns_per_pixel_pack']:.1f} |")
+                     f"{f['baseline_frames_per_pack']:.2f} | {f['ns_per_pixel_pack']:.1f} | "
+                     f"{f['fixed_cost_in_packs']:.1f} |")
     paper = summ["paper"]
     lines += ["", f"The paper (GTX 280, ~1 M pixels): {paper['ms_per_pack']:.2f} ms/frame per "
               f"pack, {paper['ms_at_0_packs']:.1f} ms at 0 packs (line through its three "
-              "points).", ""]
+              f"points): a fixed cost of {paper['fixed_cost_in_packs']:.1f} packs.", ""]
     if summ["lights"]:
         lines += ["Lights (io_iso, precontract): lines against the light count.", "",
                   "| packs | ms/frame per light | baseline ms/frame per light | "
@@ -618,7 +740,7 @@ def write_markdown(results: dict, path: Path) -> None:
         "t(P)/t(4) and the ratios, not the absolute times. The paper gives no baseline; "
         "our ratio is against the Blinn–Phong baseline of the same run, and our t(P)/t(4) "
         "is ratio(P)/ratio(4), so that the machine's changing load cancels out.", "",
-        *paper_table(results), "",
+        *paper_table(results), "", *unrolled_note(results),
         "## Memory", "",
         "| layout | packs | mode | factor texture bytes | light texture bytes per light |",
         "|---|---|---|---|---|"]
@@ -660,16 +782,17 @@ def main() -> None:
                              "pixels; 400 with --quick)")
     parser.add_argument("--frames", type=int, default=3, help="frames per timing")
     parser.add_argument("--reps", type=int, default=None,
-                        help="repetitions per configuration (median; default 4, 3 with "
+                        help="repetitions per configuration (median; default 5, 3 with "
                              "--quick)")
     parser.add_argument("--device-out", "--out", dest="out", default=str(ROOT / "docs"),
                         help="write bench_draw.md/.json here instead of docs/")
     args = parser.parse_args()
     size = args.size or (400 if args.quick else 1200)
-    reps = args.reps or (3 if args.quick else 4)
+    reps = args.reps or (3 if args.quick else 5)
     packs_grid = QUICK_PACKS if args.quick else PACKS
     lights_grid = QUICK_LIGHTS if args.quick else LIGHTS
     light_packs = QUICK_LIGHT_PACKS if args.quick else LIGHT_PACKS
+    rolled_grid = QUICK_ROLLED_PACKS if args.quick else ROLLED_PACKS
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -686,7 +809,7 @@ def main() -> None:
         f"target {size}² px, {reps} reps × {args.frames} frames")
     configs = [(layout, p, 1, pre) for layout, pre in SERIES for p in packs_grid]
     configs += [("io_iso", p, n, True) for p in light_packs for n in lights_grid if n > 1]
-    rows = []
+    rows, rolled_rows = [], []
     with Target(size, size) as target:
         gpu.state.face_culling_set("BACK")
         try:
@@ -697,6 +820,15 @@ def main() -> None:
                 log(f"  {layout:6s} {packs:2d} packs {n_lights} lights {row['mode']:12s} "
                     f"{row['ms']:8.1f} ms  baseline {row['baseline_ms']:6.1f} ms  "
                     f"ratio {row['ratio']:6.1f}  covered {row['covered_pixels']}")
+            for packs in rolled_grid:
+                row = compare_rolled(bench, "io_iso", packs)
+                if row is None:
+                    log("  no pack loop to keep rolled in glsl/: control skipped")
+                    break
+                rolled_rows.append(row)
+                log(f"  io_iso {packs:2d} packs unrolled {row['unrolled_ms']:8.1f} ms  rolled "
+                    f"{row['rolled_ms']:8.1f} ms  unrolled/rolled "
+                    f"{row['unrolled_over_rolled']:.2f}")
         finally:
             gpu.state.face_culling_set("NONE")
     seconds = time.perf_counter() - started
@@ -713,7 +845,8 @@ def main() -> None:
                      "expected_pixels": float(np.pi * (DISC_FRACTION * size) ** 2),
                      "basis_size": BASIS_SIZE, "layouts": {k: list(v) for k, v in
                                                            LAYOUTS.items()}},
-        "rows": rows, "summaries": summaries(rows, light_packs), "counts": glsl_counts(),
+        "rows": rows, "rolled": rolled_rows, "summaries": summaries(rows, light_packs),
+        "counts": glsl_counts(),
         "paper": {"gpu": "GeForce GTX 280", "pixels": "about 1 M",
                   "fps": {str(k): v for k, v in PAPER_FPS.items()}},
     }
