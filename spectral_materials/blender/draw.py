@@ -31,9 +31,13 @@ from .scene import GEOMETRY_TYPES, _renders
 _MATERIALS: dict[str, tuple] = {}
 _HANDLE = None
 _OCCLUDER_SHADER = None
-#: Materials that failed to draw, with the reason (shown in the panel; not retried
-#: until their factors change).
-FAILED: dict[str, str] = {}
+#: Materials that failed to draw: name → (factor key, reason); shown in the panel and
+#: not retried until their factors change.
+FAILED: dict[str, tuple] = {}
+#: Why the last viewport draw stopped (e.g. a light with an unusable SPD), or "".
+VIEWPORT_ERROR = ""
+#: What the last viewport draw drew (shown in the panel).
+LAST_STATS = None
 
 
 @dataclass
@@ -48,9 +52,20 @@ class DrawStats:
     vertex_bytes: int = 0
 
 
+def viewport_summary() -> str:
+    """One line about the last viewport draw, for the panel ("" before the first)."""
+    stats = LAST_STATS
+    if stats is None:
+        return ""
+    return (f"{len(stats.objects)} objects, {len(stats.materials)} materials, "
+            f"{len(stats.variants)} shader variants, "
+            f"{(stats.texture_bytes + stats.vertex_bytes) / 1024:.0f} KiB on the GPU")
+
+
 def failed_materials() -> list[tuple[str, str]]:
-    """(material, reason) for materials the draw path refused."""
-    return [(name, reason) for name, (_, reason) in sorted(FAILED.items())]
+    """(what, reason) for materials the draw path refused and a stopped viewport draw."""
+    out = [(name, reason) for name, (_, reason) in sorted(FAILED.items())]
+    return out + ([("Viewport", VIEWPORT_ERROR)] if VIEWPORT_ERROR else [])
 
 
 def _material_key(material) -> tuple | None:
@@ -241,11 +256,19 @@ def _viewport_callback() -> None:
         view = View(tuple(view_inverse[:3, 3]), perspective=True)
     else:
         view = View(tuple(view_inverse[:3, 2] / np.linalg.norm(view_inverse[:3, 2])))
+    global VIEWPORT_ERROR, LAST_STATS
     gpu.state.depth_test_set("LESS_EQUAL")
     gpu.state.depth_mask_set(True)
     try:
-        draw_objects(scene, context.evaluated_depsgraph_get(),
+        LAST_STATS = draw_objects(scene, context.evaluated_depsgraph_get(),
                      np.array(region_data.perspective_matrix), view, occluders=False)
+    except (ValueError, OSError) as exc:
+        # A draw callback runs every redraw: report once, show it in the panel, go on.
+        if str(exc) != VIEWPORT_ERROR:
+            print(f"Spectral Materials: viewport drawing stopped: {exc}")
+        VIEWPORT_ERROR = str(exc)
+    else:
+        VIEWPORT_ERROR = ""
     finally:
         gpu.state.depth_test_set("NONE")
         gpu.state.depth_mask_set(False)
@@ -280,6 +303,9 @@ def redraw_viewports() -> None:
 
 def reset() -> None:
     """Drop every GPU resource (textures, batches, shader variants)."""
+    global VIEWPORT_ERROR, LAST_STATS
+    VIEWPORT_ERROR = ""
+    LAST_STATS = None
     _MATERIALS.clear()
     FAILED.clear()
     mesh_batches.clear_cache()

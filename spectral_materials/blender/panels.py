@@ -190,6 +190,9 @@ class SPECTRAL_PT_scene(bpy.types.Panel):
         layout = self.layout
         s = context.scene.spectral
         layout.prop(s, "viewport_draw", icon="SHADING_RENDERED", toggle=True)
+        summary = spectral_draw.viewport_summary()
+        if s.viewport_draw and summary:
+            layout.label(text=summary, icon="INFO")
         failed = spectral_draw.failed_materials()
         for name, reason in failed:
             layout.label(text=f"{name}: {reason}", icon="ERROR")

@@ -23,6 +23,11 @@ FRAGMENT_LIBRARY = ("common.glsl", "parameterization.glsl", "axis_lookup.glsl",
                     "factor_packs.glsl", "spectral_basis.glsl", "lights.glsl", "frame.glsl",
                     "colour_pipeline.glsl")
 
+#: Lights one variant draws. The light loop may be unrolled into one copy of the pack
+#: loop per light, and the frame time grows linearly with lights (docs/bench_draw.md):
+#: a bound keeps compile time and frame time predictable.
+MAX_LIGHTS = 32
+
 _CACHE: dict = {}
 
 
@@ -67,6 +72,9 @@ class ShaderKey:
             raise ValueError(f"shaders handle 1..4 angular axes, got {self.axes}")
         if self.packs < 1 or self.coefficients < 1 or self.lights < 1:
             raise ValueError(f"a variant needs ≥ 1 pack, coefficient and light: {self}")
+        if self.lights > MAX_LIGHTS:
+            raise ValueError(f"{self.lights} lights reach the scene; the spectral shaders draw "
+                             f"at most {MAX_LIGHTS}: hide or disable some lights")
         if self.output not in OUTPUTS:
             raise ValueError(f"unknown output {self.output!r}; valid: {sorted(OUTPUTS)}")
 

@@ -184,6 +184,12 @@ def test_only_what_the_scene_needs_is_compiled(clean_scene, glossy_model):
     assert "SM_GEOMETRY_SPHERE" not in defines
 
 
+def test_too_many_lights_is_a_clear_error():
+    key = shaders.ShaderKey("io_iso", 3, 1, 8, shaders.MAX_LIGHTS + 1, frozenset({"SUN"}))
+    with pytest.raises(ValueError, match="hide or disable some lights"):
+        key.validate()
+
+
 def test_no_camera_or_nothing_factored_is_a_clear_error(clean_scene):
     with pytest.raises(ValueError, match="no visible object has a factored"):
         draw.render_camera(clean_scene, width=16, height=16)
