@@ -14,7 +14,8 @@ DRAWN_TYPES = {"SUN", "POINT", "SPOT", "AREA"}
 
 
 def spectral_light(obj) -> SpectralLight:
-    """A light object as a :class:`SpectralLight` (world position and axis, SPD × power)."""
+    """A light object as a :class:`SpectralLight`: world position and axis, its SPD (the
+    colour), strength = Blender energy × Spectral Power."""
     light = obj.data
     if light.type not in DRAWN_TYPES:
         raise sources.SourceError(f"Light '{obj.name}': type {light.type} is not drawn")
@@ -25,8 +26,10 @@ def spectral_light(obj) -> SpectralLight:
     kwargs = {}
     if light.type == "SPOT":
         kwargs = {"spot_size": float(light.spot_size), "spot_blend": float(light.spot_blend)}
+    # The SPD sets the colour only (it is normalised); Spectral Power scales the energy.
     return SpectralLight(light.type, sources.light_spd(light), sources.WAVELENGTHS,
-                         strength=float(light.energy), position=tuple(matrix[:3, 3]),
+                         strength=float(light.energy) * float(light.spectral.power),
+                         position=tuple(matrix[:3, 3]),
                          axis=tuple(axis), name=obj.name, **kwargs)
 
 

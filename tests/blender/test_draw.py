@@ -184,6 +184,16 @@ def test_only_what_the_scene_needs_is_compiled(clean_scene, glossy_model):
     assert "SM_GEOMETRY_SPHERE" not in defines
 
 
+def test_spectral_power_scales_the_light(clean_scene, glossy_model):
+    _paint_cube(glossy_model)
+    once, _ = draw.render_camera(clean_scene, width=32, height=24)
+    bpy.data.objects["Light"].data.spectral.power = 2.5
+    scaled, _ = draw.render_camera(clean_scene, width=32, height=24)
+    covered = once[..., 3] > 0
+    np.testing.assert_allclose(scaled[covered, :3], 2.5 * once[covered, :3], rtol=1e-5,
+                               atol=1e-7)
+
+
 def test_too_many_lights_is_a_clear_error():
     key = shaders.ShaderKey("io_iso", 3, 1, 8, shaders.MAX_LIGHTS + 1, frozenset({"SUN"}))
     with pytest.raises(ValueError, match="hide or disable some lights"):
