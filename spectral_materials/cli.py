@@ -15,6 +15,8 @@ Commands
     module, headless through EGL) and write linear CIE XYZ (channels X, Y, Z,
     float32), normalised as the protocol says, to an OpenEXR file; ``--png``
     also writes the display image (Bradford to D65, sRGB, sigmoid tone map).
+    ``--engine eevee`` renders it with EEVEE through the material node group instead
+    (Rec.2020 working space during the render), converted back to XYZ.
 
 Exit status: 0 on success, 2 on a usage or data error (one line on stderr, no
 traceback), 130 when interrupted with Ctrl-C (printed as "cancelled").
@@ -643,21 +645,44 @@ def cmd_render_sphere(args, progress: Progress) -> int:
     _check_output_path("--png", Path(args.png) if args.png else None)
     model = FactoredBRDF.load(args.factors)
     progress.info("initialising the GPU (the first headless draw compiles shaders)")
-    import bpy  # noqa: F401  (the gpu module comes with Blender)
+    import bpy
 
     from .blender.gpu_material import DisplaySettings
     from .blender.offscreen import render_sphere
 
-    image = render_sphere(model, args.incidence, args.illuminant, args.size, packs=args.packs)
+    if args.engine == "eevee":
+        from . import blender as addon
+        from .blender import eevee
+
+        if not hasattr(bpy.types.Material, "spectral"):
+            addon.register()      # the render stores the factors on a scratch material
+
+        xyz, facts = eevee.render_sphere_eevee(
+            model if args.packs is None else model.truncated(args.packs), args.incidence,
+            args.illuminant, args.size)
+        progress.info(f"EEVEE: {facts['nodes']} nodes, {facts['images']} texture(s), "
+                      f"rendered in {facts['seconds']:.1f} s ({facts['working_space']})")
+        image = np.concatenate([xyz, np.ones(xyz.shape[:2] + (1,))], axis=-1)
+    else:
+        image = render_sphere(model, args.incidence, args.illuminant, args.size,
+                              packs=args.packs)
     xyz = image[..., :3]
     write_exr(out, {"X": xyz[..., 0], "Y": xyz[..., 1], "Z": xyz[..., 2]}, {
         "spectralMaterials": "linear CIE XYZ (1931 2°), sphere protocol: a white Lambertian "
                              "lit head-on reflects Y = 1",
         "illuminant": args.illuminant, "incidenceDegrees": f"{args.incidence:g}",
         "packs": str(model.packs if args.packs is None else min(args.packs, model.packs)),
+        "engine": args.engine,
     })
     progress.info(f"wrote {out}")
-    if args.png:
+    if args.png and args.engine == "eevee":
+        white = colour_pipeline.white_xyz(args.illuminant, model.wavelengths)
+        rgb = colour_pipeline.xyz_to_display(xyz, white)[::-1]
+        import imageio.v3 as iio
+
+        iio.imwrite(args.png, (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8))
+        progress.info(f"wrote {args.png}")
+    elif args.png:
         white = colour_pipeline.white_xyz(args.illuminant, model.wavelengths)
         display = render_sphere(model, args.incidence, args.illuminant, args.size,
                                 packs=args.packs, output="DISPLAY",
@@ -686,6 +711,9 @@ def _add_render_sphere_parser(sub) -> None:
     p.add_argument("--packs", type=_int_in(1, 4096), default=None, metavar="N",
                    help="draw only the first N packs (default all)")
     p.add_argument("--png", metavar="FILE.png", help="also write the display image")
+    p.add_argument("--engine", choices=("gpu", "eevee"), default="gpu",
+                   help="gpu: the add-on's shaders (default); eevee: an EEVEE render through "
+                        "the material node group")
     p.add_argument("--quiet", action="store_true", help="no messages on stderr")
     p.set_defaults(handler=cmd_render_sphere)
 

@@ -61,8 +61,12 @@ def _output_node(tree):
     return (active or outputs or [None])[0]
 
 
-def apply_eevee(material, scene, *, light_object=None) -> dict:
-    """Add the EEVEE reconstruction to ``material``; returns node and sampler counts."""
+def apply_eevee(material, scene, *, light_object=None, measure: bool = False) -> dict:
+    """Add the EEVEE reconstruction to ``material``; returns node and sampler counts.
+
+    ``measure`` also computes the key-light term's ΔE94 against the 5 nm reference
+    (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
+    """
     if material.spectral.result.image is None:
         raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
     model = storage.load_factored(material)
@@ -112,11 +116,35 @@ def apply_eevee(material, scene, *, light_object=None) -> dict:
     links.new(nodes["ShaderNodeBsdfDiffuse"].outputs[0], nodes["ShaderNodeAddShader"].inputs[1])
     links.new(nodes["ShaderNodeAddShader"].outputs[0], surface)
     previous_receivers = _exclude_from_light(light_object, objects)
+    counts = eevee_nodes.node_count(group)
+    if measure:
+        brdf = sources.material_inputs(material).brdf()
+        counts["de94"] = prefilter.key_light_error(brdf, model, light, to_rgb)
     material[ORIGINAL_KEY] = json.dumps({
         "output": output.name, "link": original, "light": light_object.name,
-        "receivers": previous_receivers})
+        "receivers": previous_receivers, "working_space": working_space(), **counts})
     material.update_tag()
-    return eevee_nodes.node_count(group)
+    return counts
+
+
+def applied(material) -> dict | None:
+    """The record of an applied EEVEE path (key light, counts, ΔE94), or None."""
+    record = material.get(ORIGINAL_KEY)
+    return json.loads(record) if record is not None else None
+
+
+def refresh(material, scene) -> str:
+    """Rebuild an applied EEVEE path after the factors changed; '' or why it was removed."""
+    record = applied(material)
+    if record is None:
+        return ""
+    light = bpy.data.objects.get(record.get("light", ""))
+    try:
+        apply_eevee(material, scene, light_object=light, measure="de94" in record)
+    except ValueError as exc:
+        remove_eevee(material, scene)
+        return f"EEVEE path of '{material.name}' removed: {exc}"
+    return ""
 
 
 def _exclude_from_light(light_object, objects) -> str | None:

@@ -26,7 +26,7 @@ from ..core.factor import is_isotropic, resolve_parameterization
 from ..core.factored import json_default
 from ..core.material_job import FactorOptions, MaterialJobResult, factor_material
 from ..core.progress import ProgressCallback, report, scaled
-from . import sources, storage
+from . import eevee, sources, storage
 from .scene import ScenePlan
 
 BASIS_KEY = "basis"
@@ -183,6 +183,9 @@ def commit_scene_job(scene, result: SceneJobResult) -> str:
                                result.factored[name][1])
     store_scene_basis(scene, result.choice.basis, result.choice.max_de94)
     summary = result.summary()
+    # An applied EEVEE node group follows its factors.
+    notes = [eevee.refresh(bpy.data.materials[name], scene) for name in prepared]
+    summary = "; ".join([summary] + [n for n in notes if n])
     scene.spectral.analysis = summary
     scene.spectral.analysis_json = json.dumps(result.analysis(), default=json_default)
     scene.update_tag()      # so that memfile undo restores the scene's properties too

@@ -15,7 +15,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty
 
 from ..core.errors import Cancelled
-from . import jobs, scene, storage
+from . import eevee, jobs, scene, storage
 
 # SourceError, SceneError and StorageError are ValueErrors: bad input, said plainly.
 _EXPECTED = (ValueError, OSError)
@@ -208,6 +208,9 @@ class SPECTRAL_OT_clear_results(bpy.types.Operator):
             targets = [material]
         else:
             targets = list(bpy.data.materials)
+        for material in targets:           # the EEVEE group samples the factor image
+            if eevee.applied(material) is not None:
+                eevee.remove_eevee(material, context.scene)
         cleared = [m.name for m in targets if storage.clear_factored(m)]
         if self.scope == "ALL":
             jobs.clear_scene_basis(context.scene)
@@ -216,9 +219,62 @@ class SPECTRAL_OT_clear_results(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _active_material(context):
+    obj = context.active_object
+    return obj.active_material if obj is not None else None
+
+
+class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
+    """Reconstruct the active material's factor packs in an EEVEE node group (the key light
+    spectrally, the other lights and the world through a prefiltered RGB albedo)"""
+
+    bl_idname = "spectral.eevee_apply"
+    bl_label = "Apply EEVEE Node Group"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        material = _active_material(context)
+        return material is not None and material.spectral.result.image is not None
+
+    def execute(self, context):
+        material = _active_material(context)
+        try:
+            counts = eevee.apply_eevee(material, context.scene, measure=True)
+        except _EXPECTED as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        de = counts["de94"]
+        self.report({"INFO"}, f"'{material.name}': {counts['nodes']} nodes, "
+                              f"{counts['images']} texture(s); key light ΔE94 mean "
+                              f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm")
+        return {"FINISHED"}
+
+
+class SPECTRAL_OT_eevee_remove(bpy.types.Operator):
+    """Remove the EEVEE node group and restore the material's original node links"""
+
+    bl_idname = "spectral.eevee_remove"
+    bl_label = "Remove EEVEE Node Group"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        material = _active_material(context)
+        return material is not None and eevee.applied(material) is not None
+
+    def execute(self, context):
+        material = _active_material(context)
+        eevee.remove_eevee(material, context.scene)
+        self.report({"INFO"}, f"'{material.name}': original node tree restored")
+        return {"FINISHED"}
+
+
 CLASSES = (
     SPECTRAL_OT_factor_material,
     SPECTRAL_OT_factor_scene,
     SPECTRAL_OT_build_basis,
     SPECTRAL_OT_clear_results,
+    SPECTRAL_OT_eevee_apply,
+    SPECTRAL_OT_eevee_remove,
 )

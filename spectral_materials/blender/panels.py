@@ -5,7 +5,7 @@ from __future__ import annotations
 import bpy
 
 from . import draw as spectral_draw
-from . import jobs, plots, sources
+from . import eevee, jobs, plots, sources
 from .properties import MODEL_KEYS
 
 
@@ -124,7 +124,27 @@ class SPECTRAL_PT_material_result(bpy.types.Panel):
         grid.label(text=f"{r.nbytes / 1024:.1f} KiB")
         _draw_image(layout, r.plot, 8.0)
         layout.label(text="ΔE94 (D65, protocol pairs) against packs; dashed: target")
+        _draw_eevee(layout, material)
         layout.operator("spectral.clear_results", icon="TRASH").scope = "ACTIVE"
+
+
+def _draw_eevee(layout, material) -> None:
+    box = layout.box()
+    record = eevee.applied(material)
+    if record is None:
+        box.label(text="EEVEE: not applied", icon="SHADING_RENDERED")
+        box.operator("spectral.eevee_apply", icon="NODETREE")
+        return
+    box.label(text=f"EEVEE: key light '{record['light']}' ({record['working_space']})",
+              icon="SHADING_RENDERED")
+    box.label(text=f"{record['nodes']} nodes, {record['images']} texture(s)")
+    de = record.get("de94")
+    if de:
+        box.label(text=f"Key light ΔE94 mean {de['mean']:.3f}, p95 {de['p95']:.3f}, "
+                       f"max {de['max']:.3f} (5 nm)")
+    row = box.row(align=True)
+    row.operator("spectral.eevee_apply", text="Rebuild", icon="FILE_REFRESH")
+    row.operator("spectral.eevee_remove", icon="X")
 
 
 def _stale(context, material) -> str:

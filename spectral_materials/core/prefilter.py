@@ -11,7 +11,7 @@ from __future__ import annotations
 import colour
 import numpy as np
 
-from . import colour_pipeline, metrics
+from . import colour_pipeline, metrics, spectra
 from .factored import FactoredBRDF
 from .lights import SpectralLight
 
@@ -66,3 +66,23 @@ def prefiltered_albedo(model: FactoredBRDF, light: SpectralLight, to_rgb: np.nda
     xyz = model.xyz(wi, wo, light.spd if np.array_equal(light.wavelengths, model.wavelengths)
                     else np.interp(model.wavelengths, light.wavelengths, light.spd))
     return np.clip(np.asarray(to_rgb) @ (2.0 * xyz.mean(axis=0)), 0.0, None)
+
+
+def clamped_xyz(xyz: np.ndarray, to_rgb: np.ndarray) -> np.ndarray:
+    """XYZ after a renderer that clamps negative scene-linear RGB (as EEVEE does)."""
+    to_rgb = np.asarray(to_rgb, dtype=np.float64)
+    return np.clip(np.asarray(xyz) @ to_rgb.T, 0.0, None) @ np.linalg.inv(to_rgb).T
+
+
+def key_light_error(brdf, model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray,
+                    count: int = 4000) -> dict:
+    """ΔE94 of the key-light term as EEVEE shows it (the factors, then the clamp of negative
+    RGB) against the 5 nm reference under the light's SPD, at the protocol's random pairs."""
+    wi, wo = metrics.random_direction_pairs(count)
+    spd = light.spd if np.array_equal(light.wavelengths, model.wavelengths) else \
+        np.interp(model.wavelengths, light.wavelengths, light.spd)
+    reference_spd = np.interp(spectra.WAVELENGTHS_REFERENCE, light.wavelengths,
+                              light.spd)
+    reference = metrics.reference_xyz(brdf, wi, wo, reference_spd)
+    test = clamped_xyz(model.xyz(wi, wo, spd), to_rgb)
+    return metrics.delta_e94_stats(reference, test, reference_spd)

@@ -1,0 +1,194 @@
+"""The EEVEE node-group path: apply/remove leaves the user's tree as it was, the group
+follows its factors, errors are clear, and EEVEE renders match the Python evaluation."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_helpers import spectral_material  # noqa: E402
+from scipy import ndimage  # noqa: E402
+
+from spectral_materials.blender import eevee, eevee_nodes, jobs, storage  # noqa: E402
+from spectral_materials.core import (  # noqa: E402
+    colour_pipeline,
+    factor,
+    models,
+    prefilter,
+    shading,
+    spectra,
+)
+from spectral_materials.core.formats.exr import read_exr  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[2]
+WL = spectra.WAVELENGTHS_REFERENCE
+#: Drift bounds for EEVEE against the float64 evaluation of the same factors (with the
+#: renderer's clamp of negative RGB): measured mean ≤ 0.05 and p95 ≤ 0.17 over every
+#: parameterisation (docs/eevee.md); a change that breaks the node maths goes far past.
+MEAN_BOUND, P95_BOUND = 0.1, 0.3
+
+
+def _model(parameterization, resolution):
+    brdf = models.make_model("ashikhmin_shirley", diffuse=(WL, spectra.colorchecker(12)),
+                             nu=32, nv=32)
+    return storage.as_stored(factor.factor_brdf(
+        brdf, parameterization=parameterization, isotropic=parameterization.endswith("_iso"),
+        resolution=resolution, packs=2, spectral_basis=8))
+
+
+@pytest.fixture(scope="module")
+def iso_model():
+    return _model("io_iso", (16, 32, 16))
+
+
+def _cube_material(model):
+    """The start-up cube's material (a Principled BSDF tree) with stored factors."""
+    material = bpy.data.materials.new("Paint")
+    material.use_nodes = True
+    material.spectral.enabled = True
+    mesh = bpy.data.objects["Cube"].data
+    mesh.materials.clear()
+    mesh.materials.append(material)
+    storage.store_factored(material, model)
+    return material
+
+
+def _tree_state(material):
+    tree = material.node_tree
+    return (sorted(n.name for n in tree.nodes),
+            sorted((link.from_node.name, link.from_socket.identifier, link.to_node.name,
+                    link.to_socket.identifier) for link in tree.links))
+
+
+def test_apply_then_remove_restores_the_tree_and_the_light(clean_scene, iso_model):
+    material = _cube_material(iso_model)
+    before = _tree_state(material)
+    light = bpy.data.objects["Light"]
+    counts = eevee.apply_eevee(material, clean_scene)
+    assert counts["images"] == 1 and counts["nodes"] > 50
+    output = next(n for n in material.node_tree.nodes if n.bl_idname ==
+                  "ShaderNodeOutputMaterial")
+    assert output.inputs["Surface"].links[0].from_node.name.startswith(eevee.FRAME_NAME)
+    assert light.light_linking.receiver_collection is not None
+    assert eevee.applied(material)["light"] == "Light"
+    eevee.apply_eevee(material, clean_scene)          # re-applying replaces, never stacks
+    assert sum(n.bl_idname == "NodeFrame" for n in material.node_tree.nodes) == 1
+    assert eevee.remove_eevee(material, clean_scene)
+    assert _tree_state(material) == before
+    assert light.light_linking.receiver_collection is None
+    assert eevee_nodes.group_name(material) not in bpy.data.node_groups
+    assert eevee.applied(material) is None
+
+
+def test_an_existing_receiver_collection_is_restored(clean_scene, iso_model):
+    material = _cube_material(iso_model)
+    light = bpy.data.objects["Light"]
+    mine = bpy.data.collections.new("Lit by the lamp")
+    light.light_linking.receiver_collection = mine
+    eevee.apply_eevee(material, clean_scene)
+    assert light.light_linking.receiver_collection != mine
+    eevee.remove_eevee(material, clean_scene)
+    assert light.light_linking.receiver_collection == mine
+
+
+def test_key_light_is_the_brightest_at_the_objects(clean_scene, iso_model):
+    material = _cube_material(iso_model)
+    far = bpy.data.objects.new("Far", bpy.data.lights.new("Far", "POINT"))
+    far.data.energy = 1000.0
+    far.location = (100.0, 0.0, 0.0)
+    clean_scene.collection.objects.link(far)
+    bpy.context.view_layer.update()
+    assert eevee.key_light(clean_scene, material).name == "Light"
+    far.location = (3.0, 0.0, 0.0)
+    far.data.energy = 1e5
+    bpy.context.view_layer.update()
+    assert eevee.key_light(clean_scene, material).name == "Far"
+
+
+def test_clear_errors(clean_scene, iso_model):
+    material = bpy.data.materials.new("Bare")
+    bpy.data.objects["Cube"].data.materials.append(material)
+    with pytest.raises(eevee.EEVEEError, match="no stored factors"):
+        eevee.apply_eevee(material, clean_scene)
+    gs = storage.as_stored(factor.factor_brdf(models.make_model("lambert"),
+                                              parameterization="gs", resolution=(4, 4, 4, 4),
+                                              packs=1, spectral_basis=3))
+    material = _cube_material(gs)
+    with pytest.raises(ValueError, match="supports the io, io_iso"):
+        eevee.apply_eevee(material, clean_scene)
+    assert eevee.applied(material) is None
+    material = _cube_material(iso_model)
+    bpy.data.objects.remove(bpy.data.objects["Light"])
+    with pytest.raises(eevee.EEVEEError, match="needs a key light"):
+        eevee.apply_eevee(material, clean_scene)
+
+
+def test_group_follows_refactoring_and_clearing(clean_scene):
+    material = spectral_material("Felt", packs=1)
+    jobs.factor_scene(clean_scene)
+    eevee.apply_eevee(material, clean_scene)
+    material.spectral.packs = 2
+    jobs.factor_scene(clean_scene, force=True)
+    record = eevee.applied(material)
+    assert record is not None
+    group = bpy.data.node_groups[eevee_nodes.group_name(material)]
+    images = {n.image for n in group.nodes if n.bl_idname == "ShaderNodeTexImage"}
+    assert images == {material.spectral.result.image}
+    bpy.context.view_layer.objects.active = bpy.data.objects["Cube"]
+    assert bpy.ops.spectral.clear_results(scope="ACTIVE") == {"FINISHED"}
+    assert eevee.applied(material) is None
+
+
+def test_operators_report_the_measured_error(clean_scene):
+    material = spectral_material("Felt", packs=2)
+    jobs.factor_scene(clean_scene)
+    assert bpy.ops.spectral.eevee_apply() == {"FINISHED"}
+    de = eevee.applied(material)["de94"]
+    # The key-light term is the factor model itself (clamped to RGB ≥ 0): its error is
+    # the factorisation's, measured in the same way (core.metrics).
+    stored = material.spectral.result
+    assert de["count"] == 4000 and 0.0 < de["mean"] < 3 * max(stored.de94_mean, 0.05)
+    assert bpy.ops.spectral.eevee_remove() == {"FINISHED"}
+    assert eevee.applied(material) is None
+
+
+@pytest.mark.parametrize("parameterization, resolution, incidence, illuminant", [
+    ("io_iso", (16, 32, 16), 60.0, "FL2"),
+    ("hd", (12, 12, 12, 12), 0.0, "D65"),
+    ("ea", (12, 12, 24, 24), 30.0, "A"),
+])
+def test_eevee_sphere_matches_the_python_evaluation(clean_scene, parameterization, resolution,
+                                                    incidence, illuminant):
+    model = _model(parameterization, resolution)
+    xyz, facts = eevee.render_sphere_eevee(model, incidence, illuminant, 64)
+    assert facts["working_space"] == "Linear Rec.2020"
+    assert bpy.data.colorspace.working_space == "Linear Rec.709"      # restored
+    assert "SM EEVEE sphere" not in bpy.data.scenes                    # cleaned up
+    reference, mask = shading.sphere_xyz(model, incidence, illuminant, 64)
+    to_rgb = prefilter.scene_linear_matrix(colour_pipeline.white_xyz("D65", WL),
+                                           "Linear Rec.2020")
+    # The silhouette's pixels are partly covered by the tessellated sphere: left out.
+    inner = ndimage.binary_erosion(mask, iterations=2)
+    de = colour_pipeline.delta_e94(prefilter.clamped_xyz(reference[inner], to_rgb),
+                                   xyz[inner], colour_pipeline.white_xyz(illuminant, WL))
+    assert de.mean() <= MEAN_BOUND and np.percentile(de, 95) <= P95_BOUND
+    assert np.isfinite(xyz).all() and np.all(xyz[~mask] == 0)
+
+
+def test_render_sphere_command_with_eevee(iso_model, tmp_path):
+    path = iso_model.save(tmp_path / "gloss.npz")
+    out = tmp_path / "sphere.exr"
+    run = subprocess.run([sys.executable, "-m", "spectral_materials", "render-sphere", str(path),
+                          "--engine", "eevee", "--incidence", "30", "--illuminant", "D65",
+                          "--out", str(out), "--size", "32", "--quiet"],
+                         capture_output=True, text=True, timeout=600, cwd=REPO)
+    assert run.returncode == 0, run.stderr
+    channels, header = read_exr(out)
+    assert header["engine"] == "eevee" and sorted(channels) == ["X", "Y", "Z"]
+    assert channels["Y"].max() > 0.1
