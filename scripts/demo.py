@@ -28,10 +28,11 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "scripts"))
 
 import bpy  # noqa: E402
-import demo_gpu  # noqa: E402  (scripts/, next to this file)
+import demo_eevee  # noqa: E402  (scripts/, next to this file)
+import demo_gpu  # noqa: E402
 
 from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import jobs, sources, storage  # noqa: E402
+from spectral_materials.blender import eevee, jobs, sources, storage  # noqa: E402
 from spectral_materials.core import colour_pipeline, metrics, spectra  # noqa: E402
 from spectral_materials.core.progress import TerminalProgress  # noqa: E402
 
@@ -85,6 +86,8 @@ def build_scene(theta_cells: int) -> None:
     shop_obj.location = (2.0, -3.0, 4.0)
     for obj in (sun_obj, shop_obj):
         bpy.context.scene.collection.objects.link(obj)
+    # Only the two lights: the reference, the draw handler and EEVEE then see the same light.
+    bpy.context.scene.world = eevee.black_world("Black")
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     camera.location = (0.0, -11.0, 3.5)
     camera.rotation_euler = (1.33, 0.0, 0.0)
@@ -284,15 +287,18 @@ def main() -> int:
     reload = reload_check(blend, expected, out)
     (out / "reload.npz").unlink(missing_ok=True)
     scene = bpy.context.scene
-    gpu_scene = demo_gpu.scene_figure(scene, out / "images" / "gpu_scene.png")
+    gpu_scene, comparison = demo_gpu.scene_figure(scene, out / "images" / "gpu_scene.png")
     spheres = demo_gpu.sphere_table(list(analysis["factored"]))
     frame = demo_gpu.frame_time(scene)
+    eevee_section = demo_eevee.eevee_section(scene, comparison, out / "images")
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))        # with the EEVEE node groups
     total = time.perf_counter() - start
     write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells,
-                 demo_gpu.report_lines(gpu_scene, spheres, frame))
+                 demo_gpu.report_lines(gpu_scene, spheres, frame)
+                 + demo_eevee.report_lines(eevee_section))
     (out / "report.json").write_text(json.dumps(
         {"analysis": analysis, "figures": figures, "reload_bit_identical": reload,
-         "gpu_scene": gpu_scene, "frame": frame,
+         "gpu_scene": gpu_scene, "frame": frame, "eevee": eevee_section,
          "gpu_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
                          for k, v in spheres.items()],
          "seconds": total}, indent=2, default=str))

@@ -16,8 +16,9 @@ INCIDENCES = (0.0, 30.0, 60.0, 80.0)
 ILLUMINANTS = ("D65", "A", "FL2", "FL11")
 
 
-def scene_figure(scene, path: Path, width: int = 640, height: int = 360) -> dict:
-    """Reference | GPU | ΔE94 of the demo scene from its camera; per-material statistics."""
+def scene_figure(scene, path: Path, width: int = 640, height: int = 360) -> tuple:
+    """Reference | GPU | ΔE94 of the demo scene from its camera: (per-material statistics,
+    the ``SceneComparison``)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -56,7 +57,7 @@ def scene_figure(scene, path: Path, width: int = 640, height: int = 360) -> dict
                       "max": float(np.nanmax(de[mask])), "gpu_vs_mirror_max":
                       float(to_mirror.max())}
     return {"size": [width, height], "seconds": seconds, "materials": rows,
-            "lights": [light.name for light in scene_lights.drawn_lights(scene)[0]]}
+            "lights": [light.name for light in scene_lights.drawn_lights(scene)[0]]}, comparison
 
 
 def sphere_table(materials: list[str], size: int = 128) -> dict:

@@ -23,6 +23,7 @@ from . import eevee_nodes, scene_lights, sources, storage
 FRAME_NAME = "SM EEVEE"
 ORIGINAL_KEY = "sm_eevee_original"
 EXCLUSION_PREFIX = "SM EEVEE excluded from "
+PREVIOUS_RECEIVERS = "sm_previous_receivers"
 
 
 class EEVEEError(ValueError):
@@ -116,6 +117,7 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     links.new(nodes["ShaderNodeBsdfDiffuse"].outputs[0], nodes["ShaderNodeAddShader"].inputs[1])
     links.new(nodes["ShaderNodeAddShader"].outputs[0], surface)
     previous_receivers = _exclude_from_light(light_object, objects)
+    sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
     if measure:
         brdf = sources.material_inputs(material).brdf()
@@ -147,13 +149,32 @@ def refresh(material, scene) -> str:
     return ""
 
 
+def sync_light_colours(scene, to_rgb: np.ndarray) -> None:
+    """Give every light reaching the scene the RGB colour of its spectral SPD.
+
+    EEVEE (and Cycles) know a light only by its RGB colour; the spectral path by its
+    SPD. With the SPD's colour (normalised to luminance 1, ``prefilter.light_rgb``),
+    what EEVEE shades in RGB — the Diffuse BSDF's prefiltered albedo under the other
+    lights — sees the light the spectral path sees.
+    """
+    objects, _ = scene_lights.scene_lights(scene)
+    for obj in objects:
+        if obj.data.type in scene_lights.DRAWN_TYPES:
+            rgb = prefilter.light_rgb(scene_lights.spectral_light(obj), to_rgb)
+            obj.data.color = tuple(float(v) for v in np.clip(rgb, 0.0, None))
+
+
 def _exclude_from_light(light_object, objects) -> str | None:
     """Light linking: ``light_object`` no longer lights ``objects``; returns the previous
     receiver collection's name (None if it had none)."""
     linking = light_object.light_linking
     previous = linking.receiver_collection.name if linking.receiver_collection else None
     name = EXCLUSION_PREFIX + light_object.name
-    collection = bpy.data.collections.get(name) or bpy.data.collections.new(name)
+    collection = bpy.data.collections.get(name)
+    if collection is None:
+        collection = bpy.data.collections.new(name)
+        # The user's own receiver collection, restored when the last material lets go.
+        collection[PREVIOUS_RECEIVERS] = previous or ""
     if previous is not None and previous != name:
         for obj in bpy.data.collections[previous].all_objects:
             if obj.name not in collection.objects:
@@ -188,12 +209,7 @@ def remove_eevee(material, scene=None) -> bool:
             tree.links.new(socket, output.inputs["Surface"])
         light = bpy.data.objects.get(info.get("light", ""))
         if light is not None:
-            collection = bpy.data.collections.get(EXCLUSION_PREFIX + light.name)
-            previous = info.get("receivers")
-            light.light_linking.receiver_collection = \
-                bpy.data.collections.get(previous) if previous else None
-            if collection is not None:
-                bpy.data.collections.remove(collection)
+            _include_again(light, material)
         del material[ORIGINAL_KEY]
         removed = True
     group = bpy.data.node_groups.get(eevee_nodes.group_name(material))
@@ -206,6 +222,29 @@ def remove_eevee(material, scene=None) -> bool:
 def working_space() -> str:
     """The file's scene-linear working colour space (Blender 5.0: Rec.709, Rec.2020, ACEScg)."""
     return bpy.data.colorspace.working_space
+
+
+def _include_again(light, material) -> None:
+    """Undo ``_exclude_from_light`` for this material's objects; once no applied material
+    needs the exclusion collection, restore the light's previous receiver collection."""
+    collection = bpy.data.collections.get(EXCLUSION_PREFIX + light.name)
+    if collection is None:
+        return
+    still_needed = set()
+    for other in bpy.data.materials:
+        record = applied(other) if other != material else None
+        if record is not None and record.get("light") == light.name:
+            still_needed |= {o.name for o in bpy.data.objects
+                             if any(s.material == other for s in o.material_slots)}
+    for obj in list(collection.objects):
+        uses = any(s.material == material for s in obj.material_slots)
+        if uses and obj.name not in still_needed:
+            collection.objects.unlink(obj)
+    if not still_needed:
+        previous = collection.get(PREVIOUS_RECEIVERS, "")
+        light.light_linking.receiver_collection = \
+            bpy.data.collections.get(previous) if previous else None
+        bpy.data.collections.remove(collection)
 
 
 def scene_linear_to_xyz(rgb: np.ndarray, adaptation_white: str = "D65",
@@ -225,7 +264,7 @@ PROTOCOL_WORKING_SPACE = "Linear Rec.2020"
 SPHERE_SEGMENTS = 256
 
 
-def _black_world(name: str):
+def black_world(name: str):
     world = bpy.data.worlds.new(name)
     world.color = (0.0, 0.0, 0.0)
     if world.node_tree is not None:
@@ -312,7 +351,7 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
         for obj in (sphere, sun, camera):
             scene.collection.objects.link(obj)
         scene.camera = camera
-        scene.world = scratch.add("worlds", _black_world("SM EEVEE black"))
+        scene.world = scratch.add("worlds", black_world("SM EEVEE black"))
         if previous_space != PROTOCOL_WORKING_SPACE:
             bpy.ops.wm.set_working_color_space(working_space=PROTOCOL_WORKING_SPACE,
                                                convert_colors=False)

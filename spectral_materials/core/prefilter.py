@@ -54,18 +54,28 @@ def key_light_rgb_weights(model: FactoredBRDF, light: SpectralLight,
     return xyz @ np.asarray(to_rgb, dtype=np.float64).T
 
 
+def light_rgb(light: SpectralLight, to_rgb: np.ndarray) -> np.ndarray:
+    """The scene-linear RGB of a light's SPD, normalised as the protocol (Y = 1): the colour
+    an RGB renderer must give the light so that a white surface matches the spectral path."""
+    white = light.weights(light.wavelengths, None).sum(axis=0) / np.pi
+    return np.asarray(to_rgb, dtype=np.float64) @ white
+
+
 def prefiltered_albedo(model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray,
                        count: int = 8000) -> np.ndarray:
-    """Diffuse-equivalent RGB albedo of the model under ``light``'s spectrum.
+    """Diffuse-equivalent RGB albedo of the model, prefiltered under ``light``'s spectrum.
 
-    ``2 · mean(XYZ(wi, wo))`` over the protocol's uniform hemisphere pairs: the
-    cosine-weighted reflectance averaged over view directions, which is 1 for a white
-    Lambertian. Used for the lights and the world that EEVEE shades without spectra.
+    ``2 · mean(XYZ(wi, wo))`` over the protocol's uniform hemisphere pairs is the
+    cosine-weighted reflectance averaged over view directions (1 for a white
+    Lambertian); in RGB, divided channel by channel by the light's own RGB, so that an
+    RGB renderer multiplying it by a light's colour (``light_rgb``) gets the spectral
+    product exactly for this light and approximately for others (von Kries).
     """
     wi, wo = metrics.random_direction_pairs(count)
     xyz = model.xyz(wi, wo, light.spd if np.array_equal(light.wavelengths, model.wavelengths)
                     else np.interp(model.wavelengths, light.wavelengths, light.spd))
-    return np.clip(np.asarray(to_rgb) @ (2.0 * xyz.mean(axis=0)), 0.0, None)
+    rgb = np.asarray(to_rgb) @ (2.0 * xyz.mean(axis=0))
+    return np.clip(rgb / np.maximum(light_rgb(light, to_rgb), 1e-6), 0.0, None)
 
 
 def clamped_xyz(xyz: np.ndarray, to_rgb: np.ndarray) -> np.ndarray:

@@ -97,6 +97,36 @@ def test_an_existing_receiver_collection_is_restored(clean_scene, iso_model):
     assert light.light_linking.receiver_collection == mine
 
 
+def test_two_materials_share_the_key_light_exclusion(clean_scene, iso_model):
+    first = _cube_material(iso_model)
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(3.0, 0.0, 0.0))
+    sphere = bpy.context.active_object
+    second = bpy.data.materials.new("Other")
+    second.spectral.enabled = True
+    sphere.data.materials.append(second)
+    storage.store_factored(second, iso_model)
+    light = bpy.data.objects["Light"]
+    mine = bpy.data.collections.new("Lit by the lamp")
+    light.light_linking.receiver_collection = mine
+    eevee.apply_eevee(first, clean_scene, light_object=light)
+    eevee.apply_eevee(second, clean_scene, light_object=light)
+    excluded = light.light_linking.receiver_collection
+    assert {o.name for o in excluded.objects} == {"Cube", "Sphere"}
+    eevee.remove_eevee(first, clean_scene)
+    assert {o.name for o in excluded.objects} == {"Sphere"}       # still excluded
+    eevee.remove_eevee(second, clean_scene)
+    assert light.light_linking.receiver_collection == mine
+
+
+def test_light_colours_follow_their_spectra(clean_scene, iso_model):
+    material = _cube_material(iso_model)
+    light = bpy.data.objects["Light"]
+    light.data.spectral.illuminant = "A"
+    eevee.apply_eevee(material, clean_scene)
+    r, g, b = light.data.color
+    assert r > g > b          # illuminant A is reddish in Rec.709
+
+
 def test_key_light_is_the_brightest_at_the_objects(clean_scene, iso_model):
     material = _cube_material(iso_model)
     far = bpy.data.objects.new("Far", bpy.data.lights.new("Far", "POINT"))
