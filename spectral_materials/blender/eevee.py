@@ -2,8 +2,8 @@
 
 ``apply_eevee(material, scene)`` adds, beside the user's nodes (which are never
 changed), a frame holding the group node of ``eevee_nodes.build_group``, an Emission
-(the key light, reconstructed spectrally) and a Diffuse BSDF (the prefiltered albedo,
-for the other lights and the world), and links them to the material output. The
+(the key light, reconstructed spectrally) and a Principled BSDF (a Lambert + GGX fit
+of the factors, for the other lights and the world), and links them to the material output. The
 output's previous link is remembered on the material, so ``remove_eevee`` restores
 the original tree exactly. The key light lights the object through the Emission
 only: light linking excludes the material's objects from it (restored on removal).
@@ -76,12 +76,12 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
     to_rgb = prefilter.scene_linear_matrix(white, working_space())
     weights = prefilter.key_light_rgb_weights(model, light, to_rgb)
-    albedo = prefilter.prefiltered_albedo(model, light, to_rgb)
+    fit = prefilter.fit_principled(model, light, to_rgb)
     objects = _objects_using(scene, material)
     use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
     image = material.spectral.result.image
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
-    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, albedo)
+    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit)
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv)
     material.use_nodes = True
@@ -100,7 +100,8 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     nodes = {}
     for kind, offset, label in (("ShaderNodeGroup", (-700, 0), "Spectral factors"),
                                 ("ShaderNodeEmission", (-450, 60), "Key light (spectral)"),
-                                ("ShaderNodeBsdfDiffuse", (-450, -120), "Other lights (RGB)"),
+                                ("ShaderNodeBsdfPrincipled", (-450, -160),
+                                 "Other lights (RGB fit)"),
                                 ("ShaderNodeAddShader", (-220, 0), "Spectral EEVEE")):
         node = tree.nodes.new(kind)
         node.name = f"{FRAME_NAME} {label}"
@@ -112,13 +113,18 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     nodes["ShaderNodeEmission"].inputs["Strength"].default_value = 1.0
     links = tree.links
     links.new(nodes["ShaderNodeGroup"].outputs["Key light"], nodes["ShaderNodeEmission"].inputs[0])
-    links.new(nodes["ShaderNodeGroup"].outputs["Albedo"], nodes["ShaderNodeBsdfDiffuse"].inputs[0])
+    principled = nodes["ShaderNodeBsdfPrincipled"]
+    for name in ("Base Color", "Roughness", "IOR"):
+        links.new(nodes["ShaderNodeGroup"].outputs[name], principled.inputs[name])
     links.new(nodes["ShaderNodeEmission"].outputs[0], nodes["ShaderNodeAddShader"].inputs[0])
-    links.new(nodes["ShaderNodeBsdfDiffuse"].outputs[0], nodes["ShaderNodeAddShader"].inputs[1])
+    links.new(principled.outputs[0], nodes["ShaderNodeAddShader"].inputs[1])
     links.new(nodes["ShaderNodeAddShader"].outputs[0], surface)
     previous_receivers = _exclude_from_light(light_object, objects)
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
+    counts["fit"] = {"base_color": [float(v) for v in fit["base_color"]],
+                     "roughness": fit["roughness"], "specular": fit["specular"],
+                     "relative_rms": fit["relative_rms"]}
     if measure:
         brdf = sources.material_inputs(material).brdf()
         counts["de94"] = prefilter.key_light_error(brdf, model, light, to_rgb)

@@ -15,11 +15,12 @@ light, stage by stage in labelled frames:
    spectral factor folded with the light's SPD × CMFs, ``core.prefilter``), summed,
    times the key light's irradiance / π: scene-linear radiance.
 
-Outputs: ``Key light`` (that radiance, for an Emission shader) and ``Albedo`` (the
-prefiltered RGB albedo under the key light's spectrum, for a Diffuse BSDF that the
-other lights and the world light). EEVEE gives nodes no per-light data: the key
+Outputs: ``Key light`` (that radiance, for an Emission shader) and ``Base Color``,
+``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the key light's
+spectrum, ``core.prefilter.fit_principled``, for a Principled BSDF that the other
+lights and the world light). EEVEE gives nodes no per-light data: the key
 light is the only one evaluated spectrally and unshadowed (an emission casts no
-shadow); the apply step keeps it from also lighting the Diffuse BSDF.
+shadow); the apply step keeps it from also lighting the Principled BSDF.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ class KeyLight:
     object_name: str
     kind: str                     # SUN, POINT, SPOT, AREA
     weights: np.ndarray           # (terms, 3) RGB per unit irradiance (core.prefilter)
-    albedo: np.ndarray            # (3,) prefiltered RGB albedo
+    fit: dict                     # core.prefilter.fit_principled: base_color, roughness, …
 
 
 class Graph:
@@ -309,7 +310,9 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     group.nodes.clear()
     group.interface.clear()
     group.interface.new_socket("Key light", in_out="OUTPUT", socket_type="NodeSocketColor")
-    group.interface.new_socket("Albedo", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Base Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Roughness", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    group.interface.new_socket("IOR", in_out="OUTPUT", socket_type="NodeSocketFloat")
     g = Graph(group)
     wi, wo, irradiance, lit = _frame_and_light(g, key, use_uv_tangent)
     base = 14
@@ -364,11 +367,20 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     scale = g.math("MULTIPLY", g.math("MULTIPLY", irradiance, lit, column=base + 9),
                    1.0 / math.pi, column=base + 10, label="E · lit / π")
     radiance = g.vmath("SCALE", total, scale=scale, column=base + 11, label="key light")
-    albedo = g.node("ShaderNodeRGB", base + 11, "prefiltered albedo")
-    albedo.outputs[0].default_value = (*map(float, key.albedo), 1.0)
+    g.begin("Other lights: Lambert + GGX fitted under the key light's spectrum")
     output = g.node("NodeGroupOutput", base + 12)
     group.links.new(radiance, output.inputs["Key light"])
-    group.links.new(albedo.outputs[0], output.inputs["Albedo"])
+    fit = key.fit
+    colour = g.node("ShaderNodeRGB", base + 11, "diffuse colour (fit)")
+    colour.outputs[0].default_value = (*map(float, fit["base_color"]), 1.0)
+    group.links.new(colour.outputs[0], output.inputs["Base Color"])
+    # Principled's dielectric F0 = ((n − 1)/(n + 1))²: the IOR that gives the fitted F0.
+    root = math.sqrt(min(max(fit["specular"], 1e-6), 0.8))
+    for socket, label, value in (("Roughness", "roughness (fit)", fit["roughness"]),
+                                 ("IOR", "IOR of the fitted F0", (1.0 + root) / (1.0 - root))):
+        node = g.node("ShaderNodeValue", base + 11, label)
+        node.outputs[0].default_value = float(value)
+        group.links.new(node.outputs[0], output.inputs[socket])
     return group
 
 

@@ -96,3 +96,52 @@ def key_light_error(brdf, model: FactoredBRDF, light: SpectralLight, to_rgb: np.
     reference = metrics.reference_xyz(brdf, wi, wo, reference_spd)
     test = clamped_xyz(model.xyz(wi, wo, spd), to_rgb)
     return metrics.delta_e94_stats(reference, test, reference_spd)
+
+
+def _ggx_basis(wi: np.ndarray, wo: np.ndarray, alpha: float) -> np.ndarray:
+    """π · D·G / (4 cos θo) (Smith GGX, no Fresnel): a specular lobe's ``XYZ`` per unit F0
+    in the protocol's normalisation (``f·cosθi`` times π)."""
+    h = wi + wo
+    h = h / np.linalg.norm(h, axis=1, keepdims=True)
+    a2 = alpha * alpha
+    cos_h = np.clip(h[:, 2], 0.0, 1.0)
+    d = a2 / (np.pi * (cos_h * cos_h * (a2 - 1.0) + 1.0) ** 2)
+
+    def g1(cos):
+        return 2.0 * cos / (cos + np.sqrt(a2 + (1.0 - a2) * cos * cos))
+
+    return np.pi * d * g1(wi[:, 2]) * g1(wo[:, 2]) / (4.0 * wo[:, 2])
+
+
+def fit_principled(model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray,
+                   count: int = 20000) -> dict:
+    """A Lambert + GGX fit of the model under ``light`` for an RGB Principled BSDF.
+
+    Least squares over the protocol's uniform pairs: luminance first, for the lobe's
+    roughness α (a grid search) and its white specular weight, then each RGB channel's
+    diffuse weight with the lobe fixed. The diffuse colour is divided by the light's own
+    RGB (von Kries, as ``prefiltered_albedo``). Returns ``base_color`` (RGB),
+    ``roughness`` (Blender's: √α), ``specular`` (F0), and the fit's relative RMS.
+    """
+    from scipy.optimize import nnls
+
+    wi, wo = metrics.random_direction_pairs(count)
+    spd = light.spd if np.array_equal(light.wavelengths, model.wavelengths) else \
+        np.interp(model.wavelengths, light.wavelengths, light.spd)
+    rgb = model.xyz(wi, wo, spd) @ np.asarray(to_rgb, dtype=np.float64).T
+    luminance = model.xyz(wi, wo, spd)[:, 1]
+    diffuse = wi[:, 2]
+    best = None
+    for alpha in np.geomspace(0.02, 1.0, 40):
+        basis = np.stack([diffuse, _ggx_basis(wi, wo, alpha)], axis=1)
+        weights, residual = nnls(basis, luminance)
+        if best is None or residual < best[2]:
+            best = (alpha, weights, residual)
+    alpha, (kd, ks), residual = best
+    lobe = ks * _ggx_basis(wi, wo, alpha)
+    base = np.array([max(float(np.dot(diffuse, rgb[:, c] - lobe) / np.dot(diffuse, diffuse)),
+                         0.0) for c in range(3)])
+    base = base / np.maximum(light_rgb(light, to_rgb), 1e-6)
+    return {"base_color": np.clip(base, 0.0, 1.0), "roughness": float(np.sqrt(alpha)),
+            "specular": float(ks),
+            "relative_rms": float(residual / max(np.linalg.norm(luminance), 1e-12))}
