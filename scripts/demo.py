@@ -290,15 +290,19 @@ def main() -> int:
     gpu_scene, comparison = demo_gpu.scene_figure(scene, out / "images" / "gpu_scene.png")
     spheres = demo_gpu.sphere_table(list(analysis["factored"]))
     frame = demo_gpu.frame_time(scene)
+    eevee_spheres = demo_eevee.sphere_table(list(analysis["factored"]))
     eevee_section = demo_eevee.eevee_section(scene, comparison, out / "images")
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))        # with the EEVEE node groups
     total = time.perf_counter() - start
     write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells,
                  demo_gpu.report_lines(gpu_scene, spheres, frame)
-                 + demo_eevee.report_lines(eevee_section))
+                 + demo_eevee.report_lines(eevee_section)
+                 + demo_eevee.sphere_lines(eevee_spheres))
     (out / "report.json").write_text(json.dumps(
         {"analysis": analysis, "figures": figures, "reload_bit_identical": reload,
          "gpu_scene": gpu_scene, "frame": frame, "eevee": eevee_section,
+         "eevee_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
+                           for k, v in eevee_spheres.items()],
          "gpu_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
                          for k, v in spheres.items()],
          "seconds": total}, indent=2, default=str))

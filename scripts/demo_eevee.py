@@ -137,3 +137,55 @@ def report_lines(section: dict) -> list[str]:
               "and the handler is the non-key light, which EEVEE shades through the "
               "prefiltered albedo (see docs/eevee.md).", ""]
     return lines
+
+
+SPHERE_CASES = (("D65", 0.0), ("D65", 60.0), ("FL2", 30.0), ("FL11", 80.0))
+
+
+def sphere_table(materials: list[str], size: int = 128) -> dict:
+    """Per material and case: the protocol sphere rendered by EEVEE through the node group,
+    against the 5 nm reference and against the draw handler (interior pixels: the
+    tessellated sphere's silhouette pixels are left out)."""
+    from scipy import ndimage
+
+    from spectral_materials.blender import offscreen, sources, storage
+    from spectral_materials.core import metrics, spectra
+
+    rows = {}
+    for name in materials:
+        material = bpy.data.materials[name]
+        model = storage.load_factored(material)
+        brdf = sources.material_inputs(material).brdf()
+        for illuminant, incidence in SPHERE_CASES:
+            xyz, facts = eevee.render_sphere_eevee(model, incidence, illuminant, size)
+            handler = offscreen.render_sphere(model, incidence, illuminant, size)[..., :3]
+            view = metrics.sphere_directions(incidence, size)
+            top_down = np.zeros((size, size, 3))
+            top_down[view.mask] = metrics.reference_xyz(brdf, view.wi, view.wo, illuminant)
+            reference, lit = top_down[::-1], view.mask[::-1]
+            inner = ndimage.binary_erosion(lit, iterations=2)
+            white = colour_pipeline.white_xyz(illuminant, spectra.WAVELENGTHS_REFERENCE)
+            to_reference = colour_pipeline.delta_e94(reference[inner], xyz[inner], white)
+            to_handler = colour_pipeline.delta_e94(handler[inner].astype(np.float64),
+                                                   xyz[inner], white)
+            rows[(name, illuminant, incidence)] = {
+                "mean": float(to_reference.mean()),
+                "p95": float(np.percentile(to_reference, 95)),
+                "max": float(to_reference.max()),
+                "handler_mean": float(to_handler.mean()),
+                "handler_p95": float(np.percentile(to_handler, 95)),
+                "seconds": facts["seconds"], "nodes": facts["nodes"]}
+    return rows
+
+
+def sphere_lines(rows: dict) -> list[str]:
+    lines = ["Protocol sphere rendered by EEVEE (128 px, one sun, black world, working space "
+             "Linear Rec.2020 during the render; `render-sphere --engine eevee` does the same), "
+             "against the 5 nm reference and against the draw handler on the same pixels:", "",
+             "| material | illuminant | incidence | EEVEE vs 5 nm mean | p95 | max | EEVEE vs "
+             "handler mean | p95 | render s |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for (name, illuminant, incidence), row in rows.items():
+        lines.append(f"| {name} | {illuminant} | {incidence:.0f}° | {row['mean']:.3f} | "
+                     f"{row['p95']:.3f} | {row['max']:.3f} | {row['handler_mean']:.3f} | "
+                     f"{row['handler_p95']:.3f} | {row['seconds']:.2f} |")
+    return lines + [""]
