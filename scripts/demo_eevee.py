@@ -118,7 +118,8 @@ def report_lines(section: dict) -> list[str]:
              "Every material above through its EEVEE node group (`spectral.eevee_apply`): the "
              "key light (the light bringing the most irradiance to the material's objects) is "
              "reconstructed from the factor packs in nodes and shown through an Emission; the "
-             "other light and the world reach a Diffuse BSDF with the prefiltered RGB albedo. "
+             "other light and the world reach a Principled BSDF fitted to the factors (Lambert "
+             "+ GGX under the key light's spectrum). "
              f"Rendered by EEVEE at {section['size'][0]}×{section['size'][1]} (1 sample, pixel "
              f"centres), working space {section['working_space']}, black world, at the same "
              "pixels as the reference and the draw handler.", "",
@@ -134,8 +135,8 @@ def report_lines(section: dict) -> list[str]:
     lines += ["", f"EEVEE render {section['render_seconds']:.2f} s (after a first render that "
               f"compiles the materials); the draw handler's offscreen frame of the same view "
               f"{section['handler_ms']:.0f} ms (with read-back). The difference between EEVEE "
-              "and the handler is the non-key light, which EEVEE shades through the "
-              "prefiltered albedo (see docs/eevee.md).", ""]
+              "and the handler is the non-key light, which EEVEE shades in RGB through the "
+              "fitted Principled BSDF (see docs/eevee.md).", ""]
     return lines
 
 
