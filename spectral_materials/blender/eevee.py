@@ -82,8 +82,22 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     image = material.spectral.result.image
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
     key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit)
+    # Built under a scratch name and checked before anything of the material changes.
+    scratch_name = eevee_nodes.group_name(material) + " (building)"
+    group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv,
+                                    name=scratch_name)
+    needed = eevee_nodes.uniform_bytes(group)
+    if needed > eevee_nodes.UNIFORM_BLOCK_LIMIT:
+        bpy.data.node_groups.remove(group)
+        fits = max(1, int(model.packs * eevee_nodes.UNIFORM_BLOCK_LIMIT / needed))
+        raise EEVEEError(
+            f"Material '{material.name}': {model.packs} packs need {needed} bytes of node "
+            f"constants, over EEVEE's {eevee_nodes.UNIFORM_BLOCK_LIMIT} (it would render "
+            f"magenta): factor it with at most {fits} packs"
+            + (" or an isotropic (3-axis) parameterisation"
+               if len(model.grid.shape) == 4 else ""))
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
-    group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv)
+    group.name = eevee_nodes.group_name(material)
     material.use_nodes = True
     tree = material.node_tree
     output = _output_node(tree)

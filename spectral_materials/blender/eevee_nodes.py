@@ -295,18 +295,22 @@ def _frame_and_light(g: Graph, key: KeyLight, use_uv_tangent: bool):
 
 
 def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
-                use_uv_tangent: bool = False):
-    """(Re)write the node group of ``material``; returns it. Raises ValueError if unsupported."""
-    name = model.grid.parameterization.name
-    if name not in SUPPORTED:
+                use_uv_tangent: bool = False, name: str | None = None):
+    """(Re)write the node group ``name`` (default: the material's); returns it.
+
+    Raises ValueError for what the EEVEE path cannot reconstruct.
+    """
+    parameterization = model.grid.parameterization.name
+    if parameterization not in SUPPORTED:
         raise ValueError(f"Material '{material.name}': the EEVEE path supports the "
-                         f"{', '.join(SUPPORTED)} parameterisations, not {name}; refactor "
-                         "with one of them")
+                         f"{', '.join(SUPPORTED)} parameterisations, not {parameterization}; "
+                         "refactor with one of them")
     if model.form != "cp":
         raise ValueError(f"Material '{material.name}': only CP factor packs have an EEVEE path")
-    group = bpy.data.node_groups.get(group_name(material))
+    name = name or group_name(material)
+    group = bpy.data.node_groups.get(name)
     if group is None:
-        group = bpy.data.node_groups.new(group_name(material), "ShaderNodeTree")
+        group = bpy.data.node_groups.new(name, "ShaderNodeTree")
     group.nodes.clear()
     group.interface.clear()
     group.interface.new_socket("Key light", in_out="OUTPUT", socket_type="NodeSocketColor")
@@ -316,8 +320,8 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     g = Graph(group)
     wi, wo, irradiance, lit = _frame_and_light(g, key, use_uv_tangent)
     base = 14
-    g.begin(f"Coordinates ({name})")
-    coords = _coordinates(g, name, wi, wo, base)
+    g.begin(f"Coordinates ({parameterization})")
+    coords = _coordinates(g, parameterization, wi, wo, base)
     base += 12
     axes = model.grid.parameterization.axes
     shape = model.grid.shape
@@ -384,9 +388,33 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     return group
 
 
+#: EEVEE keeps every unlinked node input in one uniform block, which drivers cap at
+#: 64 KiB (GL_MAX_UNIFORM_BLOCK_SIZE on Mesa and NVIDIA). Its size is this factor times
+#: the inputs' own sizes (float 4 B, vector/colour 16 B, hidden ones included), measured
+#: on Blender 5.0.1 + Mesa 22.3: hd failed to link at 39 packs with a 65 552 B block,
+#: 1.504 × 43 600 B (docs/bench_eevee.md).
+UNIFORM_BLOCK_FACTOR = 1.504
+UNIFORM_BLOCK_LIMIT = 65536
+
+
+def uniform_bytes(group) -> int:
+    """The predicted size of EEVEE's node-constant uniform block for this group."""
+    total = 0
+    for node in group.nodes:
+        for socket in node.inputs:
+            if socket.is_linked or not hasattr(socket, "default_value"):
+                continue
+            if socket.type in ("VALUE", "INT"):
+                total += 4
+            elif socket.type in ("VECTOR", "RGBA"):
+                total += 16
+    return int(UNIFORM_BLOCK_FACTOR * total)
+
+
 def node_count(group) -> dict:
     """Nodes in the group (frames excluded) and image-texture nodes."""
     nodes = [n for n in group.nodes if n.bl_idname != "NodeFrame"]
     images = [n for n in nodes if n.bl_idname == "ShaderNodeTexImage"]
     return {"nodes": len(nodes), "image_nodes": len(images),
-            "images": len({n.image.name for n in images if n.image is not None})}
+            "images": len({n.image.name for n in images if n.image is not None}),
+            "uniform_bytes": uniform_bytes(group)}

@@ -159,6 +159,45 @@ def test_clear_errors(clean_scene, iso_model):
         eevee.apply_eevee(material, clean_scene)
 
 
+def test_over_the_uniform_block_limit_is_refused_and_nothing_changes(clean_scene, iso_model,
+                                                                     monkeypatch):
+    material = _cube_material(iso_model)
+    counts = eevee.apply_eevee(material, clean_scene)
+    before = (_tree_state(material), eevee.applied(material))
+    # The driver's 64 KiB is reached at ~38 packs (docs/bench_eevee.md); a lower limit
+    # exercises the same check on this 2-pack material in a fraction of the time.
+    monkeypatch.setattr(eevee_nodes, "UNIFORM_BLOCK_LIMIT", counts["uniform_bytes"] - 1)
+    with pytest.raises(eevee.EEVEEError, match="factor it with at most 1 packs"):
+        eevee.apply_eevee(material, clean_scene)
+    assert (_tree_state(material), eevee.applied(material)) == before
+    assert not any(g.name.endswith("(building)") for g in bpy.data.node_groups)
+
+
+def _synthetic_hd(packs: int):
+    """The benchmark's hd layout (90×45×90×45, 8 basis vectors) with random factors."""
+    from spectral_materials.core.factored import FactoredBRDF
+
+    rng = np.random.default_rng(packs)
+    resolution, terms = (90, 45, 90, 45), 4 * packs
+    return FactoredBRDF(
+        parameterization="hd", resolution=resolution, wavelengths=WL,
+        basis=np.linalg.qr(rng.standard_normal((WL.size, 8)))[0], cosine_weighted=True,
+        factors=[rng.uniform(0.5, 1.5, (n, terms)).astype(np.float32) for n in resolution],
+        spectral=rng.uniform(0.5, 1.5, (8, terms)).astype(np.float32))
+
+
+def test_uniform_block_prediction_matches_the_measured_limit(clean_scene):
+    """hd at 38 packs linked and at 39 did not (65 552 B), on this machine's Mesa."""
+    counts = {}
+    for packs in (1, 2):
+        material = _cube_material(storage.as_stored(_synthetic_hd(packs)))
+        counts[packs] = eevee.apply_eevee(material, clean_scene)["uniform_bytes"]
+    per_pack = counts[2] - counts[1]
+    predicted_39 = counts[1] + 38 * per_pack
+    assert abs(predicted_39 - 65552) < 0.01 * 65552
+    assert counts[1] + 37 * per_pack <= eevee_nodes.UNIFORM_BLOCK_LIMIT < predicted_39
+
+
 def test_group_follows_refactoring_and_clearing(clean_scene):
     material = spectral_material("Felt", packs=1)
     jobs.factor_scene(clean_scene)
