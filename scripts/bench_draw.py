@@ -30,7 +30,6 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -764,13 +763,9 @@ def write_markdown(results: dict, path: Path) -> None:
 
 
 def machine() -> dict:
-    import gpu
+    from bench_common import gpu_machine  # scripts/, next to this file
 
-    return {"renderer": gpu.platform.renderer_get(), "vendor": gpu.platform.vendor_get(),
-            "version": gpu.platform.version_get(), "backend": gpu.platform.backend_type_get(),
-            "load_start": os.getloadavg()[0],
-            "cpu_count": os.cpu_count(), "blender": bpy.app.version_string,
-            "python": platform.python_version(), "numpy": np.__version__}
+    return gpu_machine()
 
 
 def main() -> None:

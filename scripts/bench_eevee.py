@@ -50,7 +50,6 @@ import ctypes  # noqa: E402
 import datetime  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
-import platform  # noqa: E402
 import re  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -730,13 +729,9 @@ def write_markdown(results: dict, path: Path) -> None:
 
 
 def machine() -> dict:
-    import gpu
+    from bench_common import gpu_machine  # scripts/, next to this file
 
-    return {"renderer": gpu.platform.renderer_get(), "vendor": gpu.platform.vendor_get(),
-            "version": gpu.platform.version_get(), "backend": gpu.platform.backend_type_get(),
-            "load_start": os.getloadavg()[0],
-            "cpu_count": os.cpu_count(), "blender": bpy.app.version_string,
-            "python": platform.python_version(), "numpy": np.__version__}
+    return gpu_machine()
 
 
 def main() -> None:
