@@ -139,7 +139,8 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
     source: EnumProperty(
         name="Source", default="ANALYTIC",
         items=[("ANALYTIC", "Analytic model", "A BRDF model with spectra from the library"),
-               ("FILE", "Data file", "A tabulated spectral BRDF (.npz, the project's format)")],
+               ("FILE", "Data file", "A measured or tabulated BRDF: .npz (the project's "
+                       "format) or MERL .binary")],
         description="Where the spectral BRDF comes from")
     model: EnumProperty(name="Model", items=MODEL_ITEMS, default="OREN_NAYAR",
                         description="Analytic BRDF model")
@@ -163,7 +164,8 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
     ior_k: PointerProperty(type=SPECTRAL_PG_spectrum, name="IOR k",
                            description="Extinction coefficient (GGX); 0 for a dielectric")
     filepath: StringProperty(name="Data file", subtype="FILE_PATH", default="",
-                             description="Tabulated spectral BRDF (.npz, see README)")
+                             description="BRDF data: .npz (tabulated, see README) or MERL "
+                                       ".binary (RGB, uplifted with Smits 1999)")
 
     parameterization: EnumProperty(name="Parameterisation", items=PARAMETERIZATION_ITEMS,
                                    default="AUTO",

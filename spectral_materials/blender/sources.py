@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 
 from ..core import factor, models, spectra, spectrum_library
-from ..core.formats.tabulated import read_tabulated
+from ..core.formats.brdf_files import read_brdf_file
 from ..core.params import get_parameterization
 from .properties import MODEL_KEYS, PARAMETERIZATION_KEYS
 
@@ -80,7 +80,7 @@ class MaterialInputs:
     def brdf(self):
         """The BRDF callable (may run in a worker thread)."""
         if self.source == "file":
-            return read_tabulated(self.filepath)
+            return read_brdf_file(self.filepath)
         params = dict(self.scalars)
         params.update({k: (WAVELENGTHS, v) for k, v in self.spectra.items()})
         return models.make_model(self.model, **params)
@@ -216,7 +216,7 @@ def material_inputs(material) -> MaterialInputs:
         if not Path(path).is_file():
             raise SourceError(f"{name}: data file {path} does not exist")
         try:
-            read_tabulated(path)     # validates header, sizes and samples now
+            read_brdf_file(path)     # validates header, sizes and samples now
         except ValueError as exc:
             raise SourceError(f"{name}: {exc}") from None
         digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
