@@ -140,7 +140,7 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
         name="Source", default="ANALYTIC",
         items=[("ANALYTIC", "Analytic model", "A BRDF model with spectra from the library"),
                ("FILE", "Data file", "A measured or tabulated BRDF: .npz (the project's "
-                       "format) or MERL .binary")],
+                       "format), MERL .binary or RGL .bsdf")],
         description="Where the spectral BRDF comes from")
     model: EnumProperty(name="Model", items=MODEL_ITEMS, default="OREN_NAYAR",
                         description="Analytic BRDF model")
@@ -164,8 +164,8 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
     ior_k: PointerProperty(type=SPECTRAL_PG_spectrum, name="IOR k",
                            description="Extinction coefficient (GGX); 0 for a dielectric")
     filepath: StringProperty(name="Data file", subtype="FILE_PATH", default="",
-                             description="BRDF data: .npz (tabulated, see README) or MERL "
-                                       ".binary (RGB, uplifted with Smits 1999)")
+                             description="BRDF data: .npz (tabulated, see README), MERL "
+                                       ".binary or RGL .bsdf")
 
     parameterization: EnumProperty(name="Parameterisation", items=PARAMETERIZATION_ITEMS,
                                    default="AUTO",

@@ -19,10 +19,17 @@ def _merl(path):
     return read_merl(path)
 
 
+def _rgl(path):
+    from .rgl_bsdf import read_rgl_bsdf
+
+    return read_rgl_bsdf(path)
+
+
 #: Suffix → (description, reader returning a BRDF callable f(wi, wo, wavelengths)).
 READERS = {
     ".npz": ("tabulated spectral BRDF (the project's format)", _tabulated),
     ".binary": ("MERL BRDF (RGB, uplifted with Smits 1999)", _merl),
+    ".bsdf": ("RGL tensor BSDF (Dupuy & Jakob 2018; spectral or RGB)", _rgl),
 }
 
 
