@@ -76,7 +76,6 @@ import contextlib
 import io
 import math
 import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -86,6 +85,7 @@ import numpy as np
 from .. import spectra
 from ..errors import InvalidBRDFData
 from ..params import PARAMETERIZATIONS, _hd_forward
+from ._files import atomic_write, read_errors
 
 __all__ = [
     "CHANNEL_SCALES",
@@ -505,7 +505,7 @@ def _read_merl(path, *, uplift="smits1999", on_invalid: str = "raise", jakob_lut
             raise FileNotFoundError(f"{path}: no such file")
         raise IsADirectoryError(f"{path}: not a regular file")
     expected = HEADER_BYTES + 3 * 8 * math.prod(shape)
-    try:
+    with read_errors(path, _Invalid):
         size = path.stat().st_size
         if size == 0:
             raise _Invalid("empty file, not a MERL BRDF (.binary)")
@@ -529,14 +529,6 @@ def _read_merl(path, *, uplift="smits1999", on_invalid: str = "raise", jakob_lut
             raise _Invalid(f"{what}: {size:,} bytes, a MERL file of {tuple(shape)} cells has "
                            f"{expected:,}")
         table, defects = _read_body(path, tuple(shape), on_invalid)
-    except _Invalid as exc:
-        raise InvalidBRDFData(f"{path}: {exc}") from None
-    except MemoryError:
-        raise InvalidBRDFData(f"{path}: not enough memory to load its samples") from None
-    except PermissionError:
-        raise
-    except OSError as exc:
-        raise InvalidBRDFData(f"{path}: unreadable ({exc})") from None
     return MERLBRDF(table=table, defects=defects, uplift=method, path=path)
 
 
@@ -585,21 +577,14 @@ def _write_merl(path, rgb_table, shape, allow_invalid: bool) -> Path:
         raise InvalidBRDFData(f"{path}: refusing to write {int((~np.isfinite(table)).sum())} "
                               "NaN/inf samples")
     header = np.asarray(shape, dtype="<i4").tobytes()
-    handle = tempfile.NamedTemporaryFile(
-        "wb", dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-        suffix=".tmp", delete=False)
-    try:
-        with handle:
-            handle.write(header)
-            for c, scale in enumerate(CHANNEL_SCALES):
-                v = table[..., c].ravel()
-                raw = np.where(v < 0, -1.0, v / scale)  # negative: the below-horizon marker
-                handle.write(raw.astype("<f8").tobytes())
-        os.replace(handle.name, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(handle.name)
-        raise
+    def write(handle) -> None:
+        handle.write(header)
+        for c, scale in enumerate(CHANNEL_SCALES):
+            v = table[..., c].ravel()
+            raw = np.where(v < 0, -1.0, v / scale)  # negative: the below-horizon marker
+            handle.write(raw.astype("<f8").tobytes())
+
+    atomic_write(path, write)
     return path
 
 

@@ -76,11 +76,8 @@ spectra are all zero is refused.
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
 import struct
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -89,6 +86,7 @@ import numpy as np
 
 from .. import spectra as _spectra
 from ..errors import InvalidBRDFData
+from ._files import atomic_write, read_errors
 from .merl import SmitsUplift
 
 __all__ = [
@@ -220,16 +218,8 @@ def read_tensor_file(path, *, max_bytes: int = MAX_TENSOR_BYTES) -> dict[str, np
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such file")
         raise IsADirectoryError(f"{path}: not a regular file")
-    try:
+    with read_errors(path, _Invalid, "fields"):
         return _read_tensor(path, int(max_bytes))
-    except _Invalid as exc:
-        raise InvalidBRDFData(f"{path}: {exc}") from None
-    except MemoryError:
-        raise InvalidBRDFData(f"{path}: not enough memory to load its fields") from None
-    except PermissionError:
-        raise
-    except OSError as exc:
-        raise InvalidBRDFData(f"{path}: unreadable ({exc})") from None
 
 
 def write_tensor_file(path, fields: Mapping[str, np.ndarray], *,
@@ -263,20 +253,12 @@ def write_tensor_file(path, fields: Mapping[str, np.ndarray], *,
         offset += arr.nbytes + pad
     head = b"".join(table)
     head += b"\x00" * ((-len(head)) % 8)
-    handle = tempfile.NamedTemporaryFile(
-        "wb", dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-        suffix=".tmp", delete=False)
-    try:
-        with handle:
-            handle.write(head)
-            for blob in blobs:
-                handle.write(blob)
-        os.replace(handle.name, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(handle.name)
-        raise
-    return path
+    def write(handle) -> None:
+        handle.write(head)
+        for blob in blobs:
+            handle.write(blob)
+
+    return atomic_write(path, write)
 
 
 # --------------------------------------------------------------------------- interpolants

@@ -67,13 +67,13 @@ the file.
 from __future__ import annotations
 
 import math
-import os
 import re
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from ._files import atomic_path
 
 __all__ = [
     "EMISSIVE_UNITS",
@@ -406,20 +406,8 @@ def write_spectral_exr(
             channels[name] = np.ascontiguousarray(rgb[:, :, c])
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     header.update(header_extra)
-    handle = tempfile.NamedTemporaryFile(
-        "wb", dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-        suffix=".tmp.exr", delete=False)
-    handle.close()
-    try:
-        with OpenEXR.File(header, channels) as exr:
-            exr.write(handle.name)
-        os.replace(handle.name, path)
-    except BaseException:
-        try:
-            os.unlink(handle.name)
-        except OSError:
-            pass
-        raise
+    with atomic_path(path, ".tmp.exr") as temporary, OpenEXR.File(header, channels) as exr:
+        exr.write(str(temporary))
     return path
 
 

@@ -50,8 +50,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -63,6 +61,7 @@ from ..errors import InvalidBRDFData
 from ..params import PARAMETERIZATIONS, Parameterization, get_parameterization
 from ..progress import ProgressCallback
 from ..tabulate import Grid, interpolate, tabulate
+from ._files import atomic_write
 
 FORMAT = "spectral_materials.tabulated_brdf"
 FORMAT_VERSION = 1
@@ -261,19 +260,7 @@ def write_tabulated(
         "wavelengths": wl.astype(np.float64),
         "meta": _meta_bytes(param.name, grid.shape, description),
     }
-    handle = tempfile.NamedTemporaryFile(
-        "wb", dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-        suffix=".tmp", delete=False)
-    try:
-        with handle:
-            np.savez(handle, **arrays)
-        os.replace(handle.name, path)
-    except BaseException:
-        try:
-            os.unlink(handle.name)
-        except OSError:
-            pass
-        raise
+    atomic_write(path, lambda handle: np.savez(handle, **arrays))
     return path
 
 

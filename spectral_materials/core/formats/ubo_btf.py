@@ -91,10 +91,8 @@ from __future__ import annotations
 
 import io
 import math
-import os
 import re
 import struct
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -102,6 +100,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidBRDFData
+from ._files import atomic_write
 
 #: Default limit on the declared uncompressed bytes of an archive's members, on the decoded
 #: float32 array, and on the factor arrays of a UBO2014 file (8 GiB).
@@ -175,21 +174,6 @@ def _listing(names, limit: int = _LISTED) -> str:
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
-def _atomic_write(path: Path, write) -> Path:
-    handle = tempfile.NamedTemporaryFile(
-        "wb", dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.",
-        suffix=".tmp", delete=False)
-    try:
-        with handle:
-            write(handle)
-        os.replace(handle.name, path)
-    except BaseException:
-        try:
-            os.unlink(handle.name)
-        except OSError:
-            pass
-        raise
-    return path
 
 
 def _wrap(path: Path, function, *args, **kwargs):
@@ -264,7 +248,36 @@ def _decode_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, shape: tuple
     return lut[codes]
 
 
-class UBOBTF:
+class _Directions:
+    """View and light counts and unit directions from ``view_angles``/``light_angles``
+    (θ, φ) rows, in degrees or radians as the subclass's ``ANGLES_IN_DEGREES`` says."""
+
+    ANGLES_IN_DEGREES = True
+    view_angles: np.ndarray
+    light_angles: np.ndarray
+
+    @property
+    def view_count(self) -> int:
+        return int(self.view_angles.shape[0])
+
+    @property
+    def light_count(self) -> int:
+        return int(self.light_angles.shape[0])
+
+    @property
+    def view_directions(self) -> np.ndarray:
+        """(V, 3) unit vectors towards the camera, local frame z up."""
+        return directions_from_angles(self.view_angles[:, 0], self.view_angles[:, 1],
+                                      degrees=self.ANGLES_IN_DEGREES)
+
+    @property
+    def light_directions(self) -> np.ndarray:
+        """(L, 3) unit vectors towards the light, local frame z up."""
+        return directions_from_angles(self.light_angles[:, 0], self.light_angles[:, 1],
+                                      degrees=self.ANGLES_IN_DEGREES)
+
+
+class UBOBTF(_Directions):
     """A UBO2003 BTF: an RGB image per (view, light) pair.
 
     Attributes
@@ -304,24 +317,6 @@ class UBOBTF:
         self._max_bytes = max_bytes
         self._max_member_bytes = max_member_bytes
         self._images = images
-
-    @property
-    def view_count(self) -> int:
-        return int(self.view_angles.shape[0])
-
-    @property
-    def light_count(self) -> int:
-        return int(self.light_angles.shape[0])
-
-    @property
-    def view_directions(self) -> np.ndarray:
-        """(V, 3) unit vectors towards the camera, local frame z up."""
-        return directions_from_angles(self.view_angles[:, 0], self.view_angles[:, 1])
-
-    @property
-    def light_directions(self) -> np.ndarray:
-        """(L, 3) unit vectors towards the light, local frame z up."""
-        return directions_from_angles(self.light_angles[:, 0], self.light_angles[:, 1])
 
     @property
     def images(self) -> np.ndarray:
@@ -596,7 +591,7 @@ def write_ubo2003(path: str | Path, images: np.ndarray, light_angles: np.ndarray
                     archive.writestr(folder + NAME_FORMAT.format(tl, pl, tv, pv),
                                      buffer.getvalue())
 
-    return _atomic_write(path, write)
+    return atomic_write(path, write)
 
 
 # --------------------------------------------------------------------------- UBO2014
@@ -609,7 +604,7 @@ _YUV_TO_RGB = np.array([[1.0, 0.0, 1.13983],
 
 
 @dataclass
-class UBO2014BTF:
+class UBO2014BTF(_Directions):
     """A UBO2014 BTF held as its SVD factors; values are reconstructed on demand.
 
     Attributes
@@ -643,6 +638,8 @@ class UBO2014BTF:
         that use them non-finite, and values overflowing float32 become inf).
     """
 
+    ANGLES_IN_DEGREES = False
+
     path: Path | None
     signature: str
     header: dict
@@ -665,24 +662,6 @@ class UBO2014BTF:
     @property
     def channels(self) -> list[str]:
         return list(self.header["channels"])
-
-    @property
-    def view_count(self) -> int:
-        return int(self.view_angles.shape[0])
-
-    @property
-    def light_count(self) -> int:
-        return int(self.light_angles.shape[0])
-
-    @property
-    def view_directions(self) -> np.ndarray:
-        return directions_from_angles(self.view_angles[:, 0], self.view_angles[:, 1],
-                                      degrees=False)
-
-    @property
-    def light_directions(self) -> np.ndarray:
-        return directions_from_angles(self.light_angles[:, 0], self.light_angles[:, 1],
-                                      degrees=False)
 
     def _finish(self, raw: np.ndarray) -> np.ndarray:
         """Colour model and dynamic-range decoding on the last (channel) axis."""
@@ -1073,4 +1052,4 @@ def write_ubo2014(path: str | Path, *, view_angles: np.ndarray, light_angles: np
         out.write(struct.pack("<II", u.shape[0], sxv.shape[0]))
         for block in (sv, u, sxv):
             out.write(np.ascontiguousarray(block, dtype=dtype).tobytes())
-    return _atomic_write(path, lambda handle: handle.write(out.getvalue()))
+    return atomic_write(path, lambda handle: handle.write(out.getvalue()))
