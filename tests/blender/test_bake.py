@@ -70,3 +70,17 @@ def test_bad_input(clean_scene):
         bake.bake_transfer(empty, _linear_basis)
     with pytest.raises(ValueError, match="ray count"):
         bake.bake_transfer(bpy.data.objects["Cube"], _linear_basis, rays=0)
+
+
+def test_unoccluded_transfer_is_the_clamped_cosine_about_the_normal(clean_scene):
+    """With the real SH basis: a convex object's transfer is max(n·ω, 0) projected,
+    whose coefficients are known in closed form (core.sh.clamped_cosine_zonal)."""
+    from spectral_materials.core import sh
+
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12)
+    sphere = bpy.context.active_object
+    result = bake.bake_transfer(sphere, lambda d: sh.sh_basis(d, 3), rays=4096)
+    normals = np.empty(len(sphere.data.vertices) * 3)
+    sphere.data.vertex_normals.foreach_get("vector", normals)
+    expected = sh.zonal_to_sh(sh.clamped_cosine_zonal(3), normals.reshape(-1, 3))
+    np.testing.assert_allclose(result.coefficients, expected, atol=0.01)
