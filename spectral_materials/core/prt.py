@@ -53,3 +53,46 @@ def transfer_from_visibility(normals: np.ndarray, directions: np.ndarray,
                          f"{directions.shape}, visible {visible.shape}, basis {basis.shape}")
     cosine = np.clip(normals @ directions.T, 0.0, None) * visible
     return cosine @ basis * (4.0 * np.pi / len(directions))
+
+
+def albedo_weights(albedo: np.ndarray, wavelengths: np.ndarray,
+                   basis: np.ndarray | None = None, observer: str | None = None) -> np.ndarray:
+    """R̃ (m, 3): a diffuse albedo spectrum premultiplied by the CMFs (and 1/π, the
+    Lambertian BRDF), projected on the spectral basis — the spectral PRT paper's
+    per-texel term, whose dot product with the irradiance coefficients gives XYZ."""
+    from . import spectra
+
+    wl = spectra.check_wavelengths(wavelengths)
+    albedo = np.asarray(albedo, dtype=np.float64)
+    if albedo.shape != wl.shape or not np.isfinite(albedo).all():
+        raise ValueError(f"albedo must be {wl.size} finite values, got shape {albedo.shape}")
+    cmf = spectra.cmfs(wl) if observer is None else spectra.cmfs(wl, observer)
+    weighted = albedo[:, None] * cmf * spectra.sample_weights(wl)[:, None] / np.pi
+    return weighted if basis is None else np.asarray(basis, dtype=np.float64).T @ weighted
+
+
+def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndarray:
+    """Linear XYZ (V, 3) leaving diffuse vertices: ``(T̃ · L̃) · R̃``, normalised so that a
+    white, unoccluded Lambertian facing straight up under the same environment has Y = 1
+    (the environment's white is the reference, as the measurement protocol's light is).
+
+    ``transfer`` (V, K) from :func:`transfer_from_visibility` in the environment's frame,
+    ``environment`` a ``core.environment.SpectralEnvironment``, ``albedo`` (L,) on its
+    wavelengths.
+    """
+    from . import sh
+
+    transfer = np.asarray(transfer, dtype=np.float64)
+    if transfer.ndim != 2 or transfer.shape[1] != environment.coefficients.shape[0]:
+        raise ValueError(f"transfer must be (V, {environment.coefficients.shape[0]}), got "
+                         f"{transfer.shape}")
+    weights = albedo_weights(albedo, environment.wavelengths, environment.basis)
+    white = albedo_weights(np.ones(environment.wavelengths.size), environment.wavelengths,
+                           environment.basis)
+    up = sh.zonal_to_sh(sh.clamped_cosine_zonal(environment.bands), np.array([0.0, 0.0, 1.0]))
+    white_y = float((up @ environment.coefficients) @ white[:, 1])
+    if not white_y > 0:
+        raise ValueError("the environment sends no light onto an upward surface; it has no "
+                         "white to normalise by")
+    irradiance = transfer @ environment.coefficients          # Ê (V, m)
+    return irradiance @ weights / white_y
