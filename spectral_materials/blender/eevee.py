@@ -174,8 +174,8 @@ def sync_light_colours(scene, to_rgb: np.ndarray) -> None:
 
     EEVEE (and Cycles) know a light only by its RGB colour; the spectral path by its
     SPD. With the SPD's colour (normalised to luminance 1, ``prefilter.light_rgb``),
-    what EEVEE shades in RGB — the Diffuse BSDF's prefiltered albedo under the other
-    lights — sees the light the spectral path sees.
+    what EEVEE shades in RGB — the fitted Principled BSDF under the other lights —
+    sees the light the spectral path sees.
     """
     objects, _ = scene_lights.scene_lights(scene)
     for obj in objects:

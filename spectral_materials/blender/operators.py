@@ -226,7 +226,7 @@ def _active_material(context):
 
 class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
     """Reconstruct the active material's factor packs in an EEVEE node group (the key light
-    spectrally, the other lights and the world through a prefiltered RGB albedo)"""
+    spectrally, the other lights and the world through a fitted RGB Principled BSDF)"""
 
     bl_idname = "spectral.eevee_apply"
     bl_label = "Apply EEVEE Node Group"

@@ -100,10 +100,14 @@ class SpectralLight:
     def weights(self, wavelengths: np.ndarray, basis: np.ndarray | None) -> np.ndarray:
         """Ĩ (S, 3): the SPD × CMFs, protocol-normalised, on ``basis`` (or per wavelength)."""
         wl = spectra.check_wavelengths(wavelengths)
-        same = wl.shape == self.wavelengths.shape and np.array_equal(wl, self.wavelengths)
-        spd = self.spd if same else np.interp(wl, self.wavelengths, self.spd, left=0.0,
-                                               right=0.0)
-        return colour_pipeline.xyz_weights(spd, wl, basis)
+        return colour_pipeline.xyz_weights(self.spd_on(wl), wl, basis)
+
+    def spd_on(self, wavelengths: np.ndarray) -> np.ndarray:
+        """The SPD on ``wavelengths``: linear interpolation, 0 outside its own range."""
+        wl = np.asarray(wavelengths, dtype=np.float64)
+        if wl.shape == self.wavelengths.shape and np.array_equal(wl, self.wavelengths):
+            return self.spd
+        return np.interp(wl, self.wavelengths, self.spd, left=0.0, right=0.0)
 
     def incidence(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(wi (N, 3) toward the light, irradiance (N,))`` at world ``points (N, 3)``.

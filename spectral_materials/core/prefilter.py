@@ -1,9 +1,10 @@
-"""RGB quantities for renderers without spectra (EEVEE): the key light's per-term weights
-and a spectrally prefiltered albedo, both in Blender's scene-linear Rec.709 (D65).
+"""RGB quantities for renderers without spectra (EEVEE): the key light's per-term weights,
+light colours, and a Lambert + GGX fit prefiltered under a light's spectrum, in Blender's
+scene-linear working space.
 
-``scene_linear_matrix(adaptation_white)`` maps protocol XYZ to scene-linear RGB as
-the draw path's display pipeline does before its tone map: Bradford from the scene's
-adaptation white to D65, then XYZ → linear sRGB.
+``scene_linear_matrix(adaptation_white, working_space)`` maps protocol XYZ to scene-
+linear RGB as the draw path's display pipeline does before its tone map: Bradford from
+the scene's adaptation white to D65, then the working space's primaries.
 """
 
 from __future__ import annotations
@@ -61,23 +62,6 @@ def light_rgb(light: SpectralLight, to_rgb: np.ndarray) -> np.ndarray:
     return np.asarray(to_rgb, dtype=np.float64) @ white
 
 
-def prefiltered_albedo(model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray,
-                       count: int = 8000) -> np.ndarray:
-    """Diffuse-equivalent RGB albedo of the model, prefiltered under ``light``'s spectrum.
-
-    ``2 · mean(XYZ(wi, wo))`` over the protocol's uniform hemisphere pairs is the
-    cosine-weighted reflectance averaged over view directions (1 for a white
-    Lambertian); in RGB, divided channel by channel by the light's own RGB, so that an
-    RGB renderer multiplying it by a light's colour (``light_rgb``) gets the spectral
-    product exactly for this light and approximately for others (von Kries).
-    """
-    wi, wo = metrics.random_direction_pairs(count)
-    xyz = model.xyz(wi, wo, light.spd if np.array_equal(light.wavelengths, model.wavelengths)
-                    else np.interp(model.wavelengths, light.wavelengths, light.spd))
-    rgb = np.asarray(to_rgb) @ (2.0 * xyz.mean(axis=0))
-    return np.clip(rgb / np.maximum(light_rgb(light, to_rgb), 1e-6), 0.0, None)
-
-
 def clamped_xyz(xyz: np.ndarray, to_rgb: np.ndarray) -> np.ndarray:
     """XYZ after a renderer that clamps negative scene-linear RGB (as EEVEE does)."""
     to_rgb = np.asarray(to_rgb, dtype=np.float64)
@@ -89,12 +73,9 @@ def key_light_error(brdf, model: FactoredBRDF, light: SpectralLight, to_rgb: np.
     """ΔE94 of the key-light term as EEVEE shows it (the factors, then the clamp of negative
     RGB) against the 5 nm reference under the light's SPD, at the protocol's random pairs."""
     wi, wo = metrics.random_direction_pairs(count)
-    spd = light.spd if np.array_equal(light.wavelengths, model.wavelengths) else \
-        np.interp(model.wavelengths, light.wavelengths, light.spd)
-    reference_spd = np.interp(spectra.WAVELENGTHS_REFERENCE, light.wavelengths,
-                              light.spd)
+    reference_spd = light.spd_on(spectra.WAVELENGTHS_REFERENCE)
     reference = metrics.reference_xyz(brdf, wi, wo, reference_spd)
-    test = clamped_xyz(model.xyz(wi, wo, spd), to_rgb)
+    test = clamped_xyz(model.xyz(wi, wo, light.spd_on(model.wavelengths)), to_rgb)
     return metrics.delta_e94_stats(reference, test, reference_spd)
 
 
@@ -120,16 +101,17 @@ def fit_principled(model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray
     Least squares over the protocol's uniform pairs: luminance first, for the lobe's
     roughness α (a grid search) and its white specular weight, then each RGB channel's
     diffuse weight with the lobe fixed. The diffuse colour is divided by the light's own
-    RGB (von Kries, as ``prefiltered_albedo``). Returns ``base_color`` (RGB),
+    RGB (``light_rgb``; von Kries), so that an RGB renderer multiplying it by a light's
+    colour gets the spectral product exactly for this light and approximately for
+    others. Returns ``base_color`` (RGB),
     ``roughness`` (Blender's: √α), ``specular`` (F0), and the fit's relative RMS.
     """
     from scipy.optimize import nnls
 
     wi, wo = metrics.random_direction_pairs(count)
-    spd = light.spd if np.array_equal(light.wavelengths, model.wavelengths) else \
-        np.interp(model.wavelengths, light.wavelengths, light.spd)
-    rgb = model.xyz(wi, wo, spd) @ np.asarray(to_rgb, dtype=np.float64).T
-    luminance = model.xyz(wi, wo, spd)[:, 1]
+    xyz = model.xyz(wi, wo, light.spd_on(model.wavelengths))
+    rgb = xyz @ np.asarray(to_rgb, dtype=np.float64).T
+    luminance = xyz[:, 1]
     diffuse = wi[:, 2]
     best = None
     for alpha in np.geomspace(0.02, 1.0, 40):
