@@ -40,13 +40,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import bpy  # noqa: E402
+from bench_common import gpu_machine  # noqa: E402  (scripts/, next to this file)
 
 from spectral_materials.blender import mesh_batches, shaders  # noqa: E402
-from spectral_materials.blender.draw import _set_matrix  # noqa: E402
+from spectral_materials.blender.draw import set_matrix  # noqa: E402
 from spectral_materials.blender.gpu_context import ensure_gpu  # noqa: E402
 from spectral_materials.blender.gpu_material import DisplaySettings, GPUMaterial  # noqa: E402
 from spectral_materials.blender.offscreen import Target  # noqa: E402
-from spectral_materials.core import colour_pipeline, spectra  # noqa: E402
+from spectral_materials.core import colour_pipeline, prefilter, spectra  # noqa: E402
 from spectral_materials.core.factored import FactoredBRDF  # noqa: E402
 from spectral_materials.core.lights import SpectralLight  # noqa: E402
 from spectral_materials.core.shading import light_texels, sphere_pixels  # noqa: E402
@@ -221,12 +222,6 @@ class Baseline:
         self.shader.uniform_block("bp", self.params)
 
 
-def light_rgb(light: SpectralLight) -> np.ndarray:
-    """Linear sRGB of the light's SPD, normalised as the spectral path (Y = 1 per unit)."""
-    xyz = light.weights(light.wavelengths, None).sum(axis=0) / np.pi
-    return colour_pipeline.xyz_to_linear_srgb_matrix() @ xyz
-
-
 def baseline_params(lights: list[SpectralLight], vp: np.ndarray) -> bytes:
     """The std140 bytes of ``BpParams``; matrices column-major."""
     positions = np.zeros((BASELINE_MAX_LIGHTS, 4))
@@ -236,7 +231,8 @@ def baseline_params(lights: list[SpectralLight], vp: np.ndarray) -> bytes:
             positions[i] = (*(-np.asarray(light.axis)), 0.0)
         else:                      # spot and area lights are drawn as point lights
             positions[i] = (*light.position, 1.0)
-        colours[i, :3] = light_rgb(light) * light.strength
+        colours[i, :3] = prefilter.light_rgb(
+            light, colour_pipeline.xyz_to_linear_srgb_matrix()) * light.strength
     parts = [np.asarray(vp, dtype=np.float64).T, np.asarray(VIEW_ORIGIN),
              np.array([0.6, 0.5, 0.4, 1.0]), np.array([0.04, 0.04, 0.04, 64.0]),
              positions, colours]
@@ -260,8 +256,8 @@ class Bench:
         """Clear and draw the sphere with the shader ``bind`` binds (returns the shader)."""
         self.target.framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
         shader = bind()
-        _set_matrix(shader, "model_matrix", self.identity)
-        _set_matrix(shader, "normal_matrix", self.identity)
+        set_matrix(shader, "model_matrix", self.identity)
+        set_matrix(shader, "normal_matrix", self.identity)
         self.batch.draw(shader)
 
     def sync(self) -> None:
@@ -762,12 +758,6 @@ def write_markdown(results: dict, path: Path) -> None:
 # --------------------------------------------------------------------- main
 
 
-def machine() -> dict:
-    from bench_common import gpu_machine  # scripts/, next to this file
-
-    return gpu_machine()
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
@@ -799,7 +789,7 @@ def main() -> None:
     batches = mesh_batches.MeshBatches.build(arrays)
     (batch,) = batches.batches.values()
     vp = view_projection(0.5 / DISC_FRACTION)
-    info = machine()
+    info = gpu_machine()
     log(f"machine: {info['renderer']} ({info['backend']}), {info['cpu_count']} cores; "
         f"target {size}² px, {reps} reps × {args.frames} frames")
     configs = [(layout, p, 1, pre) for layout, pre in SERIES for p in packs_grid]

@@ -62,6 +62,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import bpy  # noqa: E402
+from bench_common import gpu_machine  # noqa: E402  (scripts/, next to this file)
 
 from spectral_materials import blender as addon  # noqa: E402
 from spectral_materials.blender import draw, eevee, storage  # noqa: E402
@@ -728,12 +729,6 @@ def write_markdown(results: dict, path: Path) -> None:
 # --------------------------------------------------------------------- main
 
 
-def machine() -> dict:
-    from bench_common import gpu_machine  # scripts/, next to this file
-
-    return gpu_machine()
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
@@ -769,7 +764,7 @@ def main() -> None:
 
     addon.register()
     ensure_gpu()
-    info = machine()
+    info = gpu_machine()
     log(f"machine: {info['renderer']} ({info['backend']}), {info['cpu_count']} cores; "
         f"{size}² px, {args.reps} reps, {args.draw_calls} draw calls, +{args.extra_samples} "
         f"samples; shader cache {'on' if args.shader_cache else 'off'}")

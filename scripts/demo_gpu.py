@@ -146,8 +146,8 @@ def frame_time(scene, width: int = 1280, height: int = 720, frames: int = 3,
             if batches is None:
                 continue
             matrix = np.array(obj.matrix_world)
-            draw._set_matrix(baseline.shader, "model_matrix", matrix)
-            draw._set_matrix(baseline.shader, "normal_matrix", np.linalg.inv(matrix).T)
+            draw.set_matrix(baseline.shader, "model_matrix", matrix)
+            draw.set_matrix(baseline.shader, "normal_matrix", np.linalg.inv(matrix).T)
             for batch in batches.batches.values():
                 batch.draw(baseline.shader)
 

@@ -115,7 +115,7 @@ def _column_major(matrix) -> list[float]:
     return [float(v) for v in np.asarray(matrix, dtype=np.float64).T.ravel()]
 
 
-def _set_matrix(shader, name: str, matrix) -> None:
+def set_matrix(shader, name: str, matrix) -> None:
     """Set a mat4 push constant; variants that do not read it have optimised it away."""
     try:
         shader.uniform_float(name, _column_major(matrix))
@@ -182,8 +182,8 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
             params = resource.params(display, view_origin=view.uniform(), view_projection=vp)
             resource.bind(shader, resource.light_texture(light_list, key.precontract,
                                                          lights_key), params)
-            _set_matrix(shader, "model_matrix", model_matrix)
-            _set_matrix(shader, "normal_matrix", normal_matrix)
+            set_matrix(shader, "model_matrix", model_matrix)
+            set_matrix(shader, "normal_matrix", normal_matrix)
             batch.draw(shader)
             drawn_here = True
             stats.variants.add(key)

@@ -84,8 +84,9 @@ class GPUMaterial:
         check_drawable(model)
         self.model = model
         self.uniforms = MaterialUniforms.of(model)
-        self.factor_texture = float_texture(storage.pack_pixels(model))
-        self.nbytes = int(storage.pack_pixels(model).nbytes)
+        pixels = storage.pack_pixels(model)
+        self.factor_texture = float_texture(pixels)
+        self.nbytes = int(pixels.nbytes)
         self._light_textures: dict = {}
 
     @property
