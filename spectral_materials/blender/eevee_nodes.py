@@ -115,28 +115,21 @@ class Graph:
 
     def select(self, condition, a, b, *, column: int, vector: bool = False, label: str = ""):
         """``a`` where condition (0/1) is 1, else ``b``."""
-        node = self.node("ShaderNodeMix", column, label,
-                         data_type="VECTOR" if vector else "FLOAT")
-        node.clamp_factor = True
-        kind = "VECTOR" if vector else "VALUE"
-        inputs = [s for s in node.inputs if s.enabled]
-        factor = inputs[0]
-        a_in = [s for s in inputs if s.name == "A" and s.type == kind][0]
-        b_in = [s for s in inputs if s.name == "B" and s.type == kind][0]
-        self.feed(factor, condition)
-        self.feed(a_in, b)
-        self.feed(b_in, a)
-        out = [s for s in node.outputs if s.enabled and s.type == kind][0]
-        return out
+        return self._mix(b, a, condition, clamp=True, column=column, vector=vector,
+                         label=label)
 
     def lerp(self, a, b, w, *, column: int, vector: bool, label: str = ""):
         """a + (b − a)·w with w unclamped (linear extrapolation at θ ends)."""
+        return self._mix(a, b, w, clamp=False, column=column, vector=vector, label=label)
+
+    def _mix(self, a, b, factor, *, clamp: bool, column: int, vector: bool, label: str):
+        """A Mix node (float or vector) returning a + (b − a)·factor."""
         node = self.node("ShaderNodeMix", column, label,
                          data_type="VECTOR" if vector else "FLOAT")
-        node.clamp_factor = False
+        node.clamp_factor = clamp
         kind = "VECTOR" if vector else "VALUE"
         inputs = [s for s in node.inputs if s.enabled]
-        self.feed(inputs[0], w)
+        self.feed(inputs[0], factor)
         self.feed([s for s in inputs if s.name == "A" and s.type == kind][0], a)
         self.feed([s for s in inputs if s.name == "B" and s.type == kind][0], b)
         return [s for s in node.outputs if s.enabled and s.type == kind][0]
