@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from . import colour_pipeline, spectra
-from .params import get_parameterization
+from .params import check_direction_pairs, get_parameterization
 from .tabulate import Grid, multilinear
 
 FORMAT = "spectral_materials.factored_brdf"
@@ -80,12 +80,7 @@ class FactoredBRDF:
 
     def coefficients(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Spectral-axis values (N, S) of the stored quantity (``f·cosθi`` when cosine-weighted)."""
-        wi = np.asarray(wi, dtype=np.float64)
-        wo = np.asarray(wo, dtype=np.float64)
-        if wi.shape != wo.shape or wi.ndim != 2 or wi.shape[1] != 3:
-            raise ValueError(f"wi and wo must both be (N, 3), got {wi.shape} and {wo.shape}")
-        if not (np.isfinite(wi).all() and np.isfinite(wo).all()):
-            raise ValueError("wi/wo contain NaN or inf")
+        wi, wo = check_direction_pairs(wi, wo)
         grid = self.grid
         coords = grid.parameterization.forward(wi, wo)
         lookups = grid.lookup(coords, self.edge)

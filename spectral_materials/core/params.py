@@ -78,6 +78,7 @@ __all__ = [
     "PARAMETERIZATIONS",
     "get_parameterization",
     "spherical",
+    "check_direction_pairs",
     "from_spherical",
     "axis_lookup",
 ]
@@ -119,6 +120,17 @@ def _normalize(v: np.ndarray, fallback: np.ndarray | None = None, eps: float = 0
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i->...", a, b)
+
+
+def check_direction_pairs(wi, wo) -> tuple[np.ndarray, np.ndarray]:
+    """``wi``, ``wo`` as float64 (N, 3) arrays of the same shape and finite; ValueError else."""
+    wi = np.asarray(wi, dtype=np.float64)
+    wo = np.asarray(wo, dtype=np.float64)
+    if wi.ndim != 2 or wi.shape[1] != 3 or wi.shape != wo.shape:
+        raise ValueError(f"wi and wo must both be (N, 3), got {wi.shape} and {wo.shape}")
+    if not (np.isfinite(wi).all() and np.isfinite(wo).all()):
+        raise ValueError("wi/wo contain NaN or inf")
+    return wi, wo
 
 
 def spherical(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -86,6 +86,7 @@ import numpy as np
 
 from .. import spectra as _spectra
 from ..errors import InvalidBRDFData
+from ..params import check_direction_pairs
 from ._files import atomic_write, read_errors
 from .merl import SmitsUplift
 
@@ -532,12 +533,8 @@ class RGLBSDF:
 
 
 def _directions(wi, wo) -> tuple[np.ndarray, np.ndarray]:
-    wi = np.asarray(wi, dtype=np.float64)
-    wo = np.asarray(wo, dtype=np.float64)
-    if wi.ndim != 2 or wi.shape[1] != 3 or wi.shape != wo.shape:
-        raise ValueError(f"wi and wo must both be (N, 3), got {wi.shape} and {wo.shape}")
-    if not (np.isfinite(wi).all() and np.isfinite(wo).all()):
-        raise ValueError("wi/wo contain NaN or inf")
+    """Checked (params.check_direction_pairs) and normalised; zero vectors refused."""
+    wi, wo = check_direction_pairs(wi, wo)
     ni = np.linalg.norm(wi, axis=1, keepdims=True)
     no = np.linalg.norm(wo, axis=1, keepdims=True)
     if np.any(ni == 0) or np.any(no == 0):

@@ -58,7 +58,12 @@ import numpy as np
 
 from .. import spectra
 from ..errors import InvalidBRDFData
-from ..params import PARAMETERIZATIONS, Parameterization, get_parameterization
+from ..params import (
+    PARAMETERIZATIONS,
+    Parameterization,
+    check_direction_pairs,
+    get_parameterization,
+)
 from ..progress import ProgressCallback
 from ..tabulate import Grid, interpolate, tabulate
 from ._files import atomic_write
@@ -156,12 +161,7 @@ class TabulatedBRDF:
 
     def __call__(self, wi: np.ndarray, wo: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
         """The BRDF ``f`` (N, L) at ``wavelengths`` (nm); 0 at or below the horizon."""
-        wi = np.asarray(wi, dtype=np.float64)
-        wo = np.asarray(wo, dtype=np.float64)
-        if wi.ndim != 2 or wi.shape[1] != 3 or wi.shape != wo.shape:
-            raise ValueError(f"wi and wo must both be (N, 3), got {wi.shape} and {wo.shape}")
-        if not (np.isfinite(wi).all() and np.isfinite(wo).all()):
-            raise ValueError("wi/wo contain NaN or inf")
+        wi, wo = check_direction_pairs(wi, wo)
         wl = spectra.check_wavelengths(wavelengths)
         matrix = self._resampler(wl)
         out = np.zeros((wi.shape[0], wl.size))
