@@ -32,7 +32,13 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   echo "$want" > "$stamp"
 fi
 # bpy loads X11/GL/EGL libraries at import even headless; a bare Debian image lacks some.
-if ! .venv/bin/python -c 'import bpy' >/dev/null 2>&1; then
+# Headless drawing (the gpu tests, offscreen renders, EEVEE) also needs Mesa's EGL, GBM
+# and software rasteriser, which bpy's import does not check.
+gpu_libraries_present() {
+  ldconfig -p | grep -q 'libEGL_mesa.so.0' && ldconfig -p | grep -q 'libgbm.so.1' &&
+    { compgen -G '/usr/lib/*/dri/swrast_dri.so' >/dev/null || [ -e /usr/lib/dri/swrast_dri.so ]; }
+}
+if ! .venv/bin/python -c 'import bpy' >/dev/null 2>&1 || ! gpu_libraries_present; then
   if command -v apt-get >/dev/null 2>&1; then
     apt-get update -qq
     apt-get install -y -qq libxrender1 libxi6 libxkbcommon0 libxxf86vm1 libxfixes3 libsm6 \
