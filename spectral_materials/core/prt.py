@@ -71,6 +71,34 @@ def albedo_weights(albedo: np.ndarray, wavelengths: np.ndarray,
     return weighted if basis is None else np.asarray(basis, dtype=np.float64).T @ weighted
 
 
+def white_y(environment) -> float:
+    """Y of a white, unoccluded Lambertian facing +z under ``environment``: the reference
+    every PRT colour is divided by (the environment's white, as the protocol's light)."""
+    from . import sh
+
+    white = albedo_weights(np.ones(environment.wavelengths.size), environment.wavelengths,
+                           environment.basis)
+    up = sh.zonal_to_sh(sh.clamped_cosine_zonal(environment.bands), np.array([0.0, 0.0, 1.0]))
+    value = float((up @ environment.coefficients) @ white[:, 1])
+    if not value > 0:
+        raise ValueError("the environment sends no light onto an upward surface; it has no "
+                         "white to normalise by")
+    return value
+
+
+def irradiance(transfer: np.ndarray, environment) -> np.ndarray:
+    """Ê (V, m) = T̃ · L̃ / white Y: the spectral irradiance coefficients the vertex shader
+    computes, in the environment's spectral basis (``transfer`` in its frame)."""
+    transfer = np.asarray(transfer, dtype=np.float64)
+    if transfer.ndim != 2 or transfer.shape[1] != environment.coefficients.shape[0]:
+        raise ValueError(f"transfer must be (V, {environment.coefficients.shape[0]}), got "
+                         f"{transfer.shape}")
+    if not np.isfinite(transfer).all():
+        raise ValueError(f"transfer has {int((~np.isfinite(transfer)).sum())} non-finite "
+                         "values")
+    return transfer @ environment.coefficients / white_y(environment)
+
+
 def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndarray:
     """Linear XYZ (V, 3) leaving diffuse vertices: ``(T̃ · L̃) · R̃``, normalised so that a
     white, unoccluded Lambertian facing straight up under the same environment has Y = 1
@@ -78,21 +106,56 @@ def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndar
 
     ``transfer`` (V, K) from :func:`transfer_from_visibility` in the environment's frame,
     ``environment`` a ``core.environment.SpectralEnvironment``, ``albedo`` (L,) on its
-    wavelengths.
+    wavelengths, or R̃ per vertex (V, m, 3) (``core.albedo`` layers sampled at the vertices).
     """
-    from . import sh
+    e = irradiance(transfer, environment)
+    albedo = np.asarray(albedo, dtype=np.float64)
+    if albedo.ndim == 3:
+        if albedo.shape != (len(e), e.shape[1], 3):
+            raise ValueError(f"albedo weights must be ({len(e)}, {e.shape[1]}, 3), got "
+                             f"{albedo.shape}")
+        return np.einsum("vm,vmc->vc", e, albedo)
+    return e @ albedo_weights(albedo, environment.wavelengths, environment.basis)
+
+
+# ----------------------------------------------------------------------------- RGB PRT
+# The classical pipeline the spectral PRT paper compares against: the environment and the
+# albedo reduced to linear sRGB first, reflection as a per-channel product.
+
+
+def rgb_environment(environment) -> np.ndarray:
+    """L̃ (K, 3) in linear sRGB: each SH coefficient's spectrum to XYZ, then to sRGB (an RGB
+    environment map holds exactly these values)."""
+    from . import colour_pipeline, spectra
+
+    wl = environment.wavelengths
+    spectral = environment.coefficients if environment.basis is None else \
+        environment.coefficients @ environment.basis.T                       # (K, L)
+    xyz = spectral @ (spectra.cmfs(wl) * spectra.sample_weights(wl)[:, None])
+    return xyz @ colour_pipeline.xyz_to_linear_srgb_matrix().T
+
+
+def rgb_albedo(albedo: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
+    """Linear sRGB (…, 3) of reflectance spectra (…, L) under D65, white → (1, 1, 1): the
+    texture an RGB pipeline would be given."""
+    from . import colour_pipeline, spectra
+
+    wl = spectra.check_wavelengths(wavelengths)
+    weights = colour_pipeline.xyz_weights("D65", wl)
+    to_rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
+    white = to_rgb @ (np.ones(wl.size) @ weights)
+    return (np.asarray(albedo, dtype=np.float64) @ weights) @ to_rgb.T / white
+
+
+def rgb_vertex_xyz(transfer: np.ndarray, environment, albedo_rgb: np.ndarray) -> np.ndarray:
+    """XYZ (V, 3) of RGB PRT: ``((T̃ · L̃_rgb) ⊙ albedo_rgb)`` back to XYZ, normalised by
+    the same white as :func:`vertex_xyz` (a white albedo gives identical results)."""
+    from . import colour_pipeline
 
     transfer = np.asarray(transfer, dtype=np.float64)
     if transfer.ndim != 2 or transfer.shape[1] != environment.coefficients.shape[0]:
         raise ValueError(f"transfer must be (V, {environment.coefficients.shape[0]}), got "
                          f"{transfer.shape}")
-    weights = albedo_weights(albedo, environment.wavelengths, environment.basis)
-    white = albedo_weights(np.ones(environment.wavelengths.size), environment.wavelengths,
-                           environment.basis)
-    up = sh.zonal_to_sh(sh.clamped_cosine_zonal(environment.bands), np.array([0.0, 0.0, 1.0]))
-    white_y = float((up @ environment.coefficients) @ white[:, 1])
-    if not white_y > 0:
-        raise ValueError("the environment sends no light onto an upward surface; it has no "
-                         "white to normalise by")
-    irradiance = transfer @ environment.coefficients          # Ê (V, m)
-    return irradiance @ weights / white_y
+    rgb_e = transfer @ rgb_environment(environment) / white_y(environment)
+    rgb = rgb_e * np.asarray(albedo_rgb, dtype=np.float64)
+    return rgb @ np.linalg.inv(colour_pipeline.xyz_to_linear_srgb_matrix()).T

@@ -114,3 +114,172 @@ def test_bad_input():
     with pytest.raises(ValueError, match="non-negative"):
         d, w = sh.sphere_quadrature(4)
         environment.project_samples(d, w, -np.ones((len(d), WL.size)), WL)
+
+
+# ------------------------------------------------------------------ Monte Carlo reference
+
+
+@pytest.mark.parametrize("sky", ["uniform", "overcast", "clear"])
+def test_sky_reference_is_the_light_sky_environment_projects(sky):
+    """Same scale factors: the reference's radiance, projected at the quadrature the sky
+    was normalised with, gives sky_environment's coefficients; the sun carries
+    π·sun_fraction of the horizontal irradiance."""
+    sun, fraction = np.array([0.3, 0.2, 0.9]), 0.3
+    reference = environment.sky_reference("FL2", WL, sky=sky, sun_direction=sun,
+                                          sun_fraction=fraction, quadrature=32)
+    projected = environment.sky_environment("FL2", WL, sky=sky, sun_direction=sun,
+                                            sun_fraction=0.0, bands=4, window="none",
+                                            quadrature=32)
+    directions, weights = sh.sphere_quadrature(32)
+    sky_only = environment.project_samples(directions, weights,
+                                           reference.radiance(directions), WL, bands=4,
+                                           window="none")
+    # Without the sun the sky carries all of π; with it, (1 − fraction) of π.
+    np.testing.assert_allclose(sky_only.coefficients, (1.0 - fraction) * projected.coefficients,
+                               rtol=1e-12, atol=1e-14)
+    ((direction, irradiance),) = reference.suns
+    spd = spectra.illuminant("FL2", WL)
+    np.testing.assert_allclose(direction * irradiance[0] / spd[0] * spd.max(),
+                               np.pi * fraction * sun / np.linalg.norm(sun) / direction[2],
+                               rtol=1e-12)
+    assert environment.sky_reference("D65", WL, sky=sky).suns == ()
+
+
+def test_sky_reference_refuses_what_sky_environment_refuses():
+    with pytest.raises(ValueError, match="below the horizon"):
+        environment.sky_reference("D65", WL, sun_direction=(0, 0, -1), sun_fraction=0.5)
+    with pytest.raises(ValueError, match="needs a sun_direction"):
+        environment.sky_reference("D65", WL, sun_fraction=0.5)
+    with pytest.raises(ValueError, match="sun fraction"):
+        environment.sky_reference("D65", WL, sun_direction=(0, 0, 1), sun_fraction=1.0)
+    for bad in ((0, 0, 0), (np.nan, 0, 1), (1, 2)):
+        with pytest.raises(ValueError, match="sun_direction must be"):
+            environment.sky_environment("D65", WL, sun_direction=bad, sun_fraction=0.2)
+    with pytest.raises(ValueError, match="unknown sky"):
+        environment.sky_reference("D65", WL, sky="stormy")
+
+
+@pytest.mark.parametrize("rgb", [False, True])
+def test_equirect_reference_returns_the_pixel_containing_the_direction(rgb):
+    height, width = 6, 10
+    rng = np.random.default_rng(2)
+    values = rng.uniform(0.0, 2.0, (height, width, 3 if rgb else WL.size))
+    reference = environment.equirect_reference(values, WL, rgb=rgb)
+    centres, solid = environment.equirect_directions(height, width)
+    from spectral_materials.core.formats.merl import SmitsUplift
+
+    spectral = SmitsUplift()(values.reshape(-1, 3), WL).reshape(height, width, -1) if rgb \
+        else values
+    np.testing.assert_allclose(reference.radiance(centres.reshape(-1, 3)),
+                               spectral.reshape(-1, WL.size), rtol=1e-12)
+    # Directions just inside a pixel's corners stay in it (nearest, no filtering).
+    row, column = np.meshgrid(np.arange(height), np.arange(width), indexing="ij")
+    for du, dv in ((0.001, 0.001), (0.999, 0.001), (0.001, 0.999), (0.999, 0.999)):
+        u = (column + du) / width
+        v = 1.0 - (row + dv) / height                      # row 0 at the top
+        azimuth, elevation = (u - 0.5) * 2.0 * np.pi, (v - 0.5) * np.pi
+        corner = np.stack([-np.cos(elevation) * np.cos(azimuth),
+                           np.cos(elevation) * np.sin(azimuth), np.sin(elevation)], axis=-1)
+        np.testing.assert_allclose(reference.radiance(corner.reshape(-1, 3)),
+                                   spectral.reshape(-1, WL.size), rtol=1e-12)
+    # Nearly straight up (looking along −x, the map's centre column) is row 0.
+    np.testing.assert_allclose(reference.radiance(np.array([[-0.01, 0.0, 1.0]]))[0],
+                               spectral[0, width // 2], rtol=1e-12)
+    # The white's irradiance is exact: it equals summing cos θ over finely split pixels.
+    fine = 8
+    dirs, fine_solid = environment.equirect_directions(height * fine, width * fine)
+    up = np.clip(dirs[..., 2], 0.0, None) * fine_solid
+    per_pixel = up.reshape(height, fine, width, fine).sum(axis=(1, 3))
+    np.testing.assert_allclose(reference.up_irradiance,
+                               np.einsum("hw,hwl->l", per_pixel, spectral), rtol=2e-3)
+    assert np.isclose(solid.sum(), 4 * np.pi)
+
+
+def test_equirect_reference_odd_height_splits_the_horizon_row():
+    spd = spectra.illuminant("D65", WL)
+    values = np.zeros((3, 4, WL.size))
+    values[1] = spd                                    # only the row across the horizon
+    reference = environment.equirect_reference(values, WL)
+    # ∫ z dω over el ∈ [0, π/6]: π sin²(π/6) = π/4.
+    np.testing.assert_allclose(reference.up_irradiance, np.pi / 4 * spd, rtol=1e-12)
+    values[2, 3, :2] = np.nan
+    with pytest.raises(ValueError, match="2 non-finite"):
+        environment.equirect_reference(values, WL)
+    with pytest.raises(ValueError, match="map must be"):
+        environment.equirect_reference(np.ones((3, 4, 5)), WL)
+
+
+# ------------------------------------------------------------------------ reading maps
+
+
+def _top_bright(height=4, width=8, channels=3):
+    """An array in the writers' convention (row 0 at the bottom) whose TOP row is bright."""
+    values = np.full((height, width, channels), 0.1, dtype=np.float32)
+    values[-1] = 5.0
+    return values
+
+
+def test_read_rgb_exr_puts_the_top_row_first_and_lights_from_above(tmp_path):
+    pytest.importorskip("OpenEXR")
+    from spectral_materials.core.formats.exr import write_exr
+
+    values = _top_bright()
+    values[0, 0] = (0.1, 0.2, 0.3)                      # bottom-left: the last row read
+    path = write_exr(tmp_path / "sky.exr", {c: values[..., i] for i, c in enumerate("RGB")}
+                     | {"A": np.ones(values.shape[:2])})
+    read, wavelengths, rgb = environment.read_environment_map(path)
+    assert rgb and wavelengths is None and read.shape == (4, 8, 3)
+    assert np.all(read[0] == 5.0) and np.allclose(read[-1, 0], (0.1, 0.2, 0.3))
+    env = environment.equirect_environment(read, WL, rgb=True, bands=3, window="none")
+    up, down = env.radiance(np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])).mean(axis=1)
+    assert up > 3 * down
+
+
+def test_read_spectral_exr_puts_the_top_row_first(tmp_path):
+    pytest.importorskip("OpenEXR")
+    from spectral_materials.core.formats.spectral_exr import write_spectral_exr
+
+    file_wl = np.array([400.0, 500.0, 600.0, 700.0])
+    values = _top_bright(channels=file_wl.size)
+    path = write_spectral_exr(tmp_path / "sky.exr", file_wl, values, kind="emissive")
+    read, wavelengths, rgb = environment.read_environment_map(path)
+    assert not rgb and read.shape == (4, 8, 4)
+    np.testing.assert_array_equal(wavelengths, file_wl)
+    np.testing.assert_array_equal(read, values[::-1])
+    reference = environment.equirect_reference(read, file_wl)
+    assert reference.radiance(np.array([[0.0, 0.0, 1.0]]))[0, 0] == 5.0
+
+
+def test_read_environment_map_refusals(tmp_path):
+    pytest.importorskip("OpenEXR")
+    from spectral_materials.core.formats.exr import write_exr
+    from spectral_materials.core.formats.spectral_exr import write_spectral_exr
+
+    for name in ("sky.hdr", "sky.png"):
+        (tmp_path / name).write_bytes(b"#?RADIANCE\n")
+        with pytest.raises(ValueError, match=r"\.exr.*Blender's image loader"):
+            environment.read_environment_map(tmp_path / name)
+    with pytest.raises(ValueError, match="no such file"):
+        environment.read_environment_map(tmp_path / "missing.exr")
+    reflective = write_spectral_exr(tmp_path / "paint.exr", [500.0, 600.0], np.ones((2, 2, 2)))
+    with pytest.raises(ValueError, match=r"paint.exr.*reflectances.*S0"):
+        environment.read_environment_map(reflective)
+    grey = write_exr(tmp_path / "grey.exr", {"Y": np.ones((2, 4))})
+    with pytest.raises(ValueError, match=r"grey.exr.*missing R, G, B"):
+        environment.read_environment_map(grey)
+    nan = np.ones((2, 4))
+    nan[0, :3] = np.nan
+    broken = write_exr(tmp_path / "nan.exr", {"R": nan, "G": np.ones((2, 4)),
+                                              "B": np.ones((2, 4))})
+    with pytest.raises(ValueError, match=r"nan.exr: 3 NaN or inf"):
+        environment.read_environment_map(broken)
+    for kind, path in (("rgb", write_exr(tmp_path / "rgb.exr",
+                                         {c: np.ones((8, 16)) for c in "RGB"})),
+                       ("spectral", write_spectral_exr(tmp_path / "spec.exr", [500.0, 600.0],
+                                                       np.ones((8, 16, 2)), kind="emissive"))):
+        raw = path.read_bytes()
+        for cut in (0, 3, 40, len(raw) // 2, len(raw) - 1):
+            truncated = tmp_path / f"{kind}{cut}.exr"
+            truncated.write_bytes(raw[:cut])
+            with pytest.raises(ValueError, match=f"{kind}{cut}.exr"):
+                environment.read_environment_map(truncated)

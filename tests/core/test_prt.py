@@ -65,3 +65,25 @@ def test_bad_input():
         prt.vertex_xyz(np.ones((2, 4)), env, np.ones(WL.size))
     with pytest.raises(ValueError, match="albedo must be"):
         prt.vertex_xyz(np.ones((2, 9)), env, np.ones(5))
+
+
+def test_albedo_layers_on_the_prt_basis_give_vertex_xyz():
+    """The fragment shader's Σ_j Ê_j R̃_j(uv), with R̃ from core.albedo sampled at a texel
+    centre and the basis from albedo.prt_basis, equals vertex_xyz of the spectrum — and,
+    the light (and the albedos × CMFs) lying in the basis' span, the full 5 nm result."""
+    from spectral_materials.core import albedo
+
+    patches = np.stack([spectra.colorchecker(i, WL) for i in (4, 11, 18)])
+    basis = albedo.prt_basis(patches, ["FL4"], WL, 10)
+    env = environment.sky_environment("FL4", WL, basis, sky="overcast", bands=4, window="none")
+    full = environment.sky_environment("FL4", WL, sky="overcast", bands=4, window="none")
+    transfer = sh.zonal_to_sh(sh.clamped_cosine_zonal(4), np.array([[0.0, 0.6, 0.8]]))
+    layers = albedo.albedo_layers_from_spectra(patches[None], WL, basis)          # 1 × 3
+    white = albedo.albedo_layers_from_spectra(np.ones(WL.size), WL, basis).layers[:, 0, 0]
+    up = sh.zonal_to_sh(sh.clamped_cosine_zonal(4), np.array([0.0, 0.0, 1.0]))
+    white_y = (up @ env.coefficients) @ white[:, 1]
+    for i, patch in enumerate(patches):
+        r = albedo.sample_layers(layers.layers, np.array([[(i + 0.5) / 3, 0.5]]))[0]
+        xyz = (transfer @ env.coefficients) @ r / white_y
+        np.testing.assert_allclose(xyz, prt.vertex_xyz(transfer, env, patch), rtol=1e-5)
+        np.testing.assert_allclose(xyz, prt.vertex_xyz(transfer, full, patch), rtol=1e-5)
