@@ -2,12 +2,18 @@
 
 ``bake_transfer(obj)`` casts, from every vertex of the evaluated mesh (object space,
 offset along its normal), rays along a fixed spherical Fibonacci set of directions
-(``core.prt``) against the object's own BVH (``mathutils.bvhtree``: self-shadowing
-only), and projects ``V(ω) max(n·ω, 0)`` onto the given SH basis. The callback
-``callback(fraction, message) -> stop?`` reports progress and cancels (``report``
-raises ``Cancelled``; nothing is stored). ``store_transfer`` writes the coefficients as
-point-domain float attributes ``sm_prt_00 …`` with a geometry key in the mesh's custom
-properties, so they persist in the .blend and are known stale when the mesh changes.
+(``core.prt``) against the object's own triangles (self-shadowing only), and projects
+``V(ω) max(n·ω, 0)`` onto the given SH basis. ``backend`` picks the ray caster:
+"bvhtree" is Blender's ``mathutils.bvhtree`` of the evaluated object (one ``ray_cast`` per
+ray: the baseline, which needs nothing beyond Blender); "embree", "numpy" (and the slow
+"reference") are ``core.raycast`` backends, given the evaluated mesh's loop triangles and
+asked in chunks of whole directions; "auto" takes the fastest available
+(``core.raycast.AUTO_ORDER``): Embree when the optional ``embreex`` loads, else the
+BVHTree baseline (docs/bench_raycast.md). The callback ``callback(fraction, message) ->
+stop?`` reports progress and cancels between chunks (``report`` raises ``Cancelled``;
+nothing is stored). ``store_transfer`` writes the coefficients as point-domain float
+attributes ``sm_prt_00 …`` with a geometry key in the mesh's custom properties, so they
+persist in the .blend and are known stale when the mesh changes.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ..core import raycast
 from ..core.progress import ProgressCallback, report
 
 ATTRIBUTE_PREFIX = "sm_prt_"
@@ -26,6 +33,10 @@ KEY_PROPERTY = "sm_prt_key"
 #: Ray origins move this far along the normal, relative to the mesh's bounding-box
 #: diagonal, so that a ray does not hit its own vertex's faces.
 ORIGIN_OFFSET = 1e-4
+#: Backends ``bake_transfer`` accepts: "auto", the BVHTree baseline and core.raycast's.
+BACKENDS = ("auto", "bvhtree", *(n for n in raycast.BACKENDS if n != "bvhtree"))
+#: Rays per chunk of the core.raycast backends (progress and cancellation in between).
+CHUNK_RAYS = 1 << 17
 
 
 @dataclass
@@ -35,6 +46,7 @@ class TransferBake:
     rays_cast: int
     seconds: float
     key: str
+    backend: str                      # the ray caster used ("bvhtree", "embree", "numpy")
 
     @property
     def rays_per_second(self) -> float:
@@ -60,16 +72,46 @@ def geometry_key(mesh) -> str:
     return digest.hexdigest()[:16]
 
 
-def bake_transfer(obj, basis_fn, *, rays: int = 256,
-                  callback: ProgressCallback | None = None, depsgraph=None) -> TransferBake:
-    """Transfer vectors of ``obj``'s evaluated mesh; ``basis_fn(directions) -> (R, K)``."""
-    from mathutils import Vector
-    from mathutils.bvhtree import BVHTree
+def _loop_triangles(mesh) -> np.ndarray:
+    """(T, 3) vertex indices of the mesh's loop triangles."""
+    mesh.calc_loop_triangles()
+    triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    return triangles.reshape(-1, 3)
 
+
+@dataclass
+class Visibility:
+    """Ray-cast visibility of an evaluated mesh's vertices along shared directions."""
+
+    visible: np.ndarray               # (vertices, directions) bool; False below the horizon
+    normals: np.ndarray               # (vertices, 3) unit (zero where undefined)
+    directions: np.ndarray            # (directions, 3) spherical Fibonacci set
+    rays_cast: int
+    seconds: float                    # tracing only
+    build_seconds: float              # the backend's acceleration structure
+    key: str
+    backend: str
+
+
+def trace_visibility(obj, *, rays: int = 256, callback: ProgressCallback | None = None,
+                     depsgraph=None, backend: str = "auto",
+                     threads: int | None = None) -> Visibility:
+    """Visibility of ``obj``'s evaluated mesh from each vertex along ``rays`` directions.
+
+    ``backend``: one of :data:`BACKENDS`; a named backend that cannot run here raises
+    ``core.raycast.BackendUnavailable``. ``threads``: for the core.raycast backends
+    (default: every core this process may use); "bvhtree" runs on one.
+    """
     from ..core import prt
 
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown ray-casting backend {backend!r}; choose one of {BACKENDS}")
     if obj is None or obj.type != "MESH":
         raise ValueError(f"PRT bakes meshes; '{getattr(obj, 'name', obj)}' is not one")
+    # "auto" without Embree is the BVHTree baseline (faster here than core.raycast's
+    # "bvhtree", which converts every ray, and than "numpy": docs/bench_raycast.md).
+    backend = "bvhtree" if backend == "bvhtree" else raycast.resolve(backend)
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
     mesh = evaluated.to_mesh()
@@ -78,33 +120,92 @@ def bake_transfer(obj, basis_fn, *, rays: int = 256,
             raise ValueError(f"Object '{obj.name}' has no faces to bake")
         co, normals = _mesh_arrays(mesh)
         key = geometry_key(mesh)
+        triangles = _loop_triangles(mesh) if backend != "bvhtree" else None
     finally:
         evaluated.to_mesh_clear()
     lengths = np.linalg.norm(normals, axis=1)
     normals = np.where(lengths[:, None] > 0, normals / np.maximum(lengths, 1e-30)[:, None], 0.0)
     directions = prt.fibonacci_directions(rays)
-    basis = np.asarray(basis_fn(directions), dtype=np.float64)
-    tree = BVHTree.FromObject(obj, depsgraph)
     offset = ORIGIN_OFFSET * float(np.linalg.norm(co.max(axis=0) - co.min(axis=0)) or 1.0)
-    visible = np.zeros((len(co), rays), dtype=bool)
-    vectors = [Vector(d) for d in directions]
+    origins = co + offset * normals
     start = time.perf_counter()
+    if backend == "bvhtree":
+        from mathutils.bvhtree import BVHTree
+
+        tree = BVHTree.FromObject(obj, depsgraph)
+        built = time.perf_counter()
+        visible, cast = _trace_bvhtree(tree, origins, normals, directions, callback)
+    else:
+        occluder = raycast.Occluder(co, triangles, backend=backend, threads=threads)
+        built = time.perf_counter()
+        above = normals @ directions.T > 0.0                     # (V, R): rays to cast
+        visible, cast = _trace_chunks(occluder, origins, directions, above, callback)
+    seconds = time.perf_counter() - built
+    return Visibility(visible, normals, directions, cast, seconds, built - start, key, backend)
+
+
+def bake_transfer(obj, basis_fn, *, rays: int = 256,
+                  callback: ProgressCallback | None = None, depsgraph=None,
+                  backend: str = "auto", threads: int | None = None) -> TransferBake:
+    """Transfer vectors of ``obj``'s evaluated mesh; ``basis_fn(directions) -> (R, K)``.
+    ``backend`` and ``threads`` as for :func:`trace_visibility`."""
+    from ..core import prt
+
+    basis = np.asarray(basis_fn(prt.fibonacci_directions(rays)), dtype=np.float64)
+    seen = trace_visibility(obj, rays=rays, callback=callback, depsgraph=depsgraph,
+                            backend=backend, threads=threads)
+    report(callback, 1.0, "projecting")
+    coefficients = prt.transfer_from_visibility(seen.normals, seen.directions, seen.visible,
+                                                basis)
+    return TransferBake(coefficients.astype(np.float32), rays, seen.rays_cast, seen.seconds,
+                        seen.key, seen.backend)
+
+
+def _trace_bvhtree(tree, origins, normals, directions, callback):
+    """The baseline: Blender's BVHTree of the evaluated object, one ray_cast per ray."""
+    from mathutils import Vector
+
+    count, rays = len(origins), len(directions)
+    visible = np.zeros((count, rays), dtype=bool)
+    vectors = [Vector(d) for d in directions]
     cast = 0
     chunk = max(1, 2000 // max(rays // 64, 1))
-    for begin in range(0, len(co), chunk):
-        report(callback, begin / len(co), f"tracing vertex {begin} of {len(co)}")
-        for v in range(begin, min(begin + chunk, len(co))):
-            n = normals[v]
-            origin = Vector(co[v] + offset * n)
-            above = np.flatnonzero(directions @ n > 0.0)
+    for begin in range(0, count, chunk):
+        report(callback, begin / count, f"tracing vertex {begin} of {count} (bvhtree)")
+        for v in range(begin, min(begin + chunk, count)):
+            origin = Vector(origins[v])
+            above = np.flatnonzero(directions @ normals[v] > 0.0)
             cast += len(above)
             row = visible[v]
             for r in above:
                 row[r] = tree.ray_cast(origin, vectors[r])[0] is None
-    seconds = time.perf_counter() - start
-    report(callback, 1.0, "projecting")
-    coefficients = prt.transfer_from_visibility(normals, directions, visible, basis)
-    return TransferBake(coefficients.astype(np.float32), rays, cast, seconds, key)
+    return visible, cast
+
+
+def _trace_chunks(occluder: raycast.Occluder, origins, directions, above, callback):
+    """A core.raycast backend, in chunks of whole directions of about CHUNK_RAYS rays."""
+    count, rays = above.shape
+    visible = np.zeros((rays, count), dtype=bool)                # transposed while filled
+    origins = origins.astype(occluder.dtype)                     # the backend's precision
+    directions = directions.astype(occluder.dtype)
+    cumulative = np.cumsum(np.count_nonzero(above, axis=0))
+    total = int(cumulative[-1])
+    done = 0
+    begin = 0
+    while begin < rays:
+        # The most directions whose rays fit in CHUNK_RAYS, at least one.
+        end = int(np.searchsorted(cumulative, done + CHUNK_RAYS, side="right"))
+        end = min(max(end, begin + 1), rays)
+        report(callback, done / max(total, 1),
+               f"tracing direction {begin} of {rays} ({occluder.backend})")
+        # Direction-major: consecutive rays share a direction (coherent for every backend).
+        cast = np.ascontiguousarray(above[:, begin:end].T)
+        direction, vertex = np.nonzero(cast)
+        hit = occluder.occluded(origins[vertex], directions[direction + begin])
+        visible[begin:end][cast] = ~hit               # boolean order = np.nonzero's order
+        done += len(vertex)
+        begin = end
+    return np.ascontiguousarray(visible.T), done
 
 
 def store_transfer(mesh, bake: TransferBake) -> None:

@@ -23,7 +23,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ..core.shading import View
-from . import mesh_batches, scene_lights, shaders, storage
+from . import mesh_batches, prt, prt_gpu, scene_lights, shaders, storage
 from .gpu_material import DisplaySettings, GPUMaterial
 from .offscreen import Target
 from .scene import GEOMETRY_TYPES, _renders
@@ -50,6 +50,7 @@ class DrawStats:
     triangles: int = 0
     texture_bytes: int = 0
     vertex_bytes: int = 0
+    prt_objects: list[str] = field(default_factory=list)
 
 
 def viewport_summary() -> str:
@@ -65,6 +66,7 @@ def viewport_summary() -> str:
 def failed_materials() -> list[tuple[str, str]]:
     """(what, reason) for materials the draw path refused and a stopped viewport draw."""
     out = [(name, reason) for name, (_, reason) in sorted(FAILED.items())]
+    out += sorted(prt_gpu.FAILED.items())
     return out + ([("Viewport", VIEWPORT_ERROR)] if VIEWPORT_ERROR else [])
 
 
@@ -146,7 +148,10 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
     display = display or scene_lights.display_settings(scene)
     vp = np.asarray(view_projection, dtype=np.float64)
     work = []                     # (object, batches, {slot: GPUMaterial or None})
+    prt_objects = prt.prt_objects(scene) if only is None else []
     for obj in drawable_objects(scene):
+        if obj in prt_objects:
+            continue            # drawn below, by the PRT shaders
         slots = {i: gpu_material(s.material)
                  if s.material is not None and (only is None or s.material.name in only)
                  else None for i, s in enumerate(obj.material_slots)}
@@ -195,6 +200,11 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
         if drawn_here:
             stats.objects.append(obj.name)
             stats.vertex_bytes += batches.arrays.nbytes
+    if prt_objects:
+        prt_output = output if output in prt_gpu.PRT_OUTPUTS else "XYZ"
+        stats.prt_objects = prt_gpu.draw_prt_objects(scene, depsgraph, vp, output=prt_output,
+                                                     display=display, objects=prt_objects)
+        stats.objects += stats.prt_objects
     return stats
 
 
@@ -236,7 +246,7 @@ def render_camera(scene, *, width: int | None = None, height: int | None = None,
         image = target.read()
     if not stats.objects:
         raise ValueError(f"Scene '{scene.name}': no visible object has a factored spectral "
-                         "material to draw (factor one first)")
+                         "material or a baked PRT transfer to draw (factor or bake first)")
     return image, stats
 
 
@@ -310,6 +320,8 @@ def reset() -> None:
     FAILED.clear()
     mesh_batches.clear_cache()
     shaders.clear_cache()
+    prt_gpu.clear_cache()
+    prt.clear_cache()
     global _OCCLUDER_SHADER
     _OCCLUDER_SHADER = None
 

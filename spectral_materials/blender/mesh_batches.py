@@ -137,6 +137,11 @@ def note_depsgraph_updates(depsgraph) -> None:
                     _SERIAL[obj_name] = _SERIAL.get(obj_name, 0) + 1
 
 
+def serial(name: str) -> int:
+    """How many geometry changes of object ``name`` were seen (for other caches' keys)."""
+    return _SERIAL.get(name, 0)
+
+
 def clear_cache() -> None:
     _CACHE.clear()
     _SERIAL.clear()

@@ -15,7 +15,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty
 
 from ..core.errors import Cancelled
-from . import eevee, jobs, scene, storage
+from . import eevee, jobs, prt, scene, storage
 
 # SourceError, SceneError and StorageError are ValueErrors: bad input, said plainly.
 _EXPECTED = (ValueError, OSError)
@@ -46,14 +46,9 @@ class _Worker:
         return not self.thread.is_alive()
 
 
-class _SceneJobOperator:
-    """Shared modal/synchronous machinery; subclasses say what to plan and whether to factor."""
-
-    bl_options = {"REGISTER", "UNDO"}
-    factor_materials = True
-
-    def plan(self, context) -> scene.ScenePlan:
-        raise NotImplementedError
+class _ModalJob:
+    """A job in a worker thread behind a progress bar: subclasses start ``self._worker``
+    in ``invoke`` and say how to ``_finish`` (commit) its result on the main thread."""
 
     def _report_failure(self, exc: BaseException) -> set[str]:
         if isinstance(exc, Cancelled):
@@ -65,38 +60,13 @@ class _SceneJobOperator:
                                    "nothing was changed")
         return {"CANCELLED"}
 
-    def _finish(self, context, result) -> set[str]:
-        try:
-            message = jobs.commit_scene_job(context.scene, result)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        self.report({"INFO"}, message)
-        return {"FINISHED"}
-
-    def execute(self, context):
-        try:
-            plan = self.plan(context)
-            result = jobs.run_scene_job(plan, None, factor=self.factor_materials)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        return self._finish(context, result)
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        job = context.window_manager.spectral_job
-        if job.running:
-            self.report({"WARNING"}, "A spectral job is already running")
-            return {"CANCELLED"}
-        try:
-            plan = self.plan(context)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        factor = self.factor_materials
-        self._worker = _Worker(lambda cb: jobs.run_scene_job(plan, cb, factor=factor))
+    def _start(self, context, work) -> set[str]:
+        """Run ``work(callback)`` in a worker thread; the timer drives :meth:`modal`."""
+        self._worker = _Worker(work)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 1000)
+        job = wm.spectral_job
         job.running, job.fraction, job.message = True, 0.0, "starting"
         wm.modal_handler_add(self)
         return {"RUNNING_MODAL"}
@@ -134,6 +104,46 @@ class _SceneJobOperator:
         if worker.error is not None:
             return self._report_failure(worker.error)
         return self._finish(context, worker.result)
+
+
+class _SceneJobOperator(_ModalJob):
+    """Shared modal/synchronous machinery; subclasses say what to plan and whether to factor."""
+
+    bl_options = {"REGISTER", "UNDO"}
+    factor_materials = True
+
+    def plan(self, context) -> scene.ScenePlan:
+        raise NotImplementedError
+
+    def _finish(self, context, result) -> set[str]:
+        try:
+            message = jobs.commit_scene_job(context.scene, result)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+    def execute(self, context):
+        try:
+            plan = self.plan(context)
+            result = jobs.run_scene_job(plan, None, factor=self.factor_materials)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        return self._finish(context, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        job = context.window_manager.spectral_job
+        if job.running:
+            self.report({"WARNING"}, "A spectral job is already running")
+            return {"CANCELLED"}
+        try:
+            plan = self.plan(context)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        factor = self.factor_materials
+        return self._start(context, lambda cb: jobs.run_scene_job(plan, cb, factor=factor))
 
 
 class SPECTRAL_OT_factor_material(_SceneJobOperator, bpy.types.Operator):
@@ -270,6 +280,79 @@ class SPECTRAL_OT_eevee_remove(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class SPECTRAL_OT_bake_prt(_ModalJob, bpy.types.Operator):
+    """Bake the active object's PRT transfer (self-shadowing by ray casting) and store its
+    spectral albedo layers; Esc cancels and leaves everything as it was"""
+
+    bl_idname = "spectral.bake_prt"
+    bl_label = "Bake PRT"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type != "MESH":
+            cls.poll_message_set("Select a mesh object")
+            return False
+        return True
+
+    def _commit(self, context, plan, result) -> set[str]:
+        try:
+            prt.commit_bake(context.scene, plan, result)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        from . import draw
+
+        draw.redraw_viewports()
+        self.report({"INFO"}, f"'{plan.object_name}': {len(plan.positions)} vertices × "
+                              f"{plan.rays} rays in {result.seconds:.1f} s "
+                              f"({result.rays_per_second / 1e6:.2f} M rays/s, "
+                              f"{result.backend})")
+        return {"FINISHED"}
+
+    def execute(self, context):
+        try:
+            plan = prt.plan_bake(context.active_object, context.scene)
+            result = prt.run_bake(plan)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        return self._commit(context, plan, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        job = context.window_manager.spectral_job
+        if job.running:
+            self.report({"WARNING"}, "A spectral job is already running")
+            return {"CANCELLED"}
+        try:
+            self._plan = prt.plan_bake(context.active_object, context.scene)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        plan = self._plan
+        return self._start(context, lambda cb: prt.run_bake(plan, cb))
+
+    def _finish(self, context, result) -> set[str]:
+        return self._commit(context, self._plan, result)
+
+
+class SPECTRAL_OT_clear_prt(bpy.types.Operator):
+    """Remove the active object's PRT transfer and albedo layers"""
+
+    bl_idname = "spectral.clear_prt"
+    bl_label = "Clear PRT"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return obj is not None and obj.type == "MESH"
+
+    def execute(self, context):
+        prt.clear_prt(context.active_object)
+        return {"FINISHED"}
+
+
 CLASSES = (
     SPECTRAL_OT_factor_material,
     SPECTRAL_OT_factor_scene,
@@ -277,4 +360,6 @@ CLASSES = (
     SPECTRAL_OT_clear_results,
     SPECTRAL_OT_eevee_apply,
     SPECTRAL_OT_eevee_remove,
+    SPECTRAL_OT_bake_prt,
+    SPECTRAL_OT_clear_prt,
 )

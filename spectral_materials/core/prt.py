@@ -107,6 +107,8 @@ def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndar
     ``transfer`` (V, K) from :func:`transfer_from_visibility` in the environment's frame,
     ``environment`` a ``core.environment.SpectralEnvironment``, ``albedo`` (L,) on its
     wavelengths, or R̃ per vertex (V, m, 3) (``core.albedo`` layers sampled at the vertices).
+    Negative components, left by the ringing of a band-limited sharp light, are clipped to
+    0 (as the shader does): no physical spectrum has a negative XYZ.
     """
     e = irradiance(transfer, environment)
     albedo = np.asarray(albedo, dtype=np.float64)
@@ -114,8 +116,11 @@ def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndar
         if albedo.shape != (len(e), e.shape[1], 3):
             raise ValueError(f"albedo weights must be ({len(e)}, {e.shape[1]}, 3), got "
                              f"{albedo.shape}")
-        return np.einsum("vm,vmc->vc", e, albedo)
-    return e @ albedo_weights(albedo, environment.wavelengths, environment.basis)
+        xyz = np.einsum("vm,vmc->vc", e, albedo)
+    else:
+        xyz = e @ albedo_weights(albedo, environment.wavelengths, environment.basis)
+    # A band-limited sharp light (a sun) rings; no physical spectrum has negative XYZ.
+    return np.clip(xyz, 0.0, None)
 
 
 # ----------------------------------------------------------------------------- RGB PRT
@@ -124,15 +129,16 @@ def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndar
 
 
 def rgb_environment(environment) -> np.ndarray:
-    """L̃ (K, 3) in linear sRGB: each SH coefficient's spectrum to XYZ, then to sRGB (an RGB
-    environment map holds exactly these values)."""
+    """L̃ (K, 3) in linear sRGB, divided by π: each SH coefficient's spectrum to XYZ, then to
+    sRGB (an RGB environment map holds these values), over π (the Lambertian BRDF's), so
+    that (T̃ · L̃) ⊙ albedo is the outgoing radiance as in :func:`vertex_xyz`."""
     from . import colour_pipeline, spectra
 
     wl = environment.wavelengths
     spectral = environment.coefficients if environment.basis is None else \
         environment.coefficients @ environment.basis.T                       # (K, L)
     xyz = spectral @ (spectra.cmfs(wl) * spectra.sample_weights(wl)[:, None])
-    return xyz @ colour_pipeline.xyz_to_linear_srgb_matrix().T
+    return xyz @ colour_pipeline.xyz_to_linear_srgb_matrix().T / np.pi
 
 
 def rgb_albedo(albedo: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
@@ -158,4 +164,5 @@ def rgb_vertex_xyz(transfer: np.ndarray, environment, albedo_rgb: np.ndarray) ->
                          f"{transfer.shape}")
     rgb_e = transfer @ rgb_environment(environment) / white_y(environment)
     rgb = rgb_e * np.asarray(albedo_rgb, dtype=np.float64)
-    return rgb @ np.linalg.inv(colour_pipeline.xyz_to_linear_srgb_matrix()).T
+    return np.clip(rgb @ np.linalg.inv(colour_pipeline.xyz_to_linear_srgb_matrix()).T, 0.0,
+                   None)

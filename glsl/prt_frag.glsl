@@ -1,0 +1,64 @@
+/* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
+ * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
+ * spectral_materials/core/albedo.py sample_layers) so that the Python mirror matches.
+ * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT 0 writes XYZ,
+ * 1 display sRGB, 2 the world position, 5 the UV, 6 the primitive index. */
+
+vec4 sm_albedo_texel(ivec2 texel, int layer)
+{
+  /* REPEAT: GLSL's % is undefined for negative operands, mod() is not. */
+  ivec2 wrapped = ivec2(mod(vec2(texel), vec2(sm.sizes.yz)));
+  return texelFetch(albedo_tex, ivec3(wrapped, layer), 0);
+}
+
+void main()
+{
+#if SM_OUTPUT == 2
+  frag_colour = vec4(world_position, 1.0);
+  return;
+#elif SM_OUTPUT == 5
+  frag_colour = vec4(tex_uv, 0.0, 1.0);
+  return;
+#elif SM_OUTPUT == 6
+  frag_colour = vec4(float(gl_PrimitiveID), 0.0, 0.0, 1.0);
+  return;
+#else
+  vec2 st = tex_uv * vec2(sm.sizes.yz) - 0.5;
+  vec2 cell = floor(st);
+  vec2 f = st - cell;
+  ivec2 c0 = ivec2(cell);
+  vec4 w = vec4((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+  vec4 e[4];
+  e[0] = prt_e0;
+#  if SM_PRT_VEC4 > 1
+  e[1] = prt_e1;
+#  endif
+#  if SM_PRT_VEC4 > 2
+  e[2] = prt_e2;
+#  endif
+#  if SM_PRT_VEC4 > 3
+  e[3] = prt_e3;
+#  endif
+  vec3 xyz = vec3(0.0);
+#  if SM_PRT_RGB
+  vec3 albedo = (w.x * sm_albedo_texel(c0, 0) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), 0) +
+                 w.z * sm_albedo_texel(c0 + ivec2(0, 1), 0) +
+                 w.w * sm_albedo_texel(c0 + ivec2(1, 1), 0)).rgb;
+  xyz = mat3(sm.rgb_to_xyz) * (e[0].rgb * albedo);
+#  else
+  for (int j = 0; j < SM_PRT_COEFFS; j++) {
+    vec3 r = (w.x * sm_albedo_texel(c0, j) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), j) +
+              w.z * sm_albedo_texel(c0 + ivec2(0, 1), j) +
+              w.w * sm_albedo_texel(c0 + ivec2(1, 1), j)).rgb;
+    xyz += e[j / 4][j % 4] * r;
+  }
+#  endif
+  /* Ringing of a band-limited sharp light: no physical spectrum has a negative XYZ. */
+  xyz = max(xyz, vec3(0.0));
+#  if SM_OUTPUT == 0
+  frag_colour = vec4(xyz, 1.0);
+#  else
+  frag_colour = vec4(sm_xyz_to_display(xyz), 1.0);
+#  endif
+#endif
+}
