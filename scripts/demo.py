@@ -7,7 +7,9 @@ table, the error-against-packs plot the panel shows, and sphere pictures under D
 and FL2 (5 nm reference | stored factors | ΔE94) at 60° incidence; then the GPU
 section (``demo_gpu.py``): the scene drawn offscreen by the spectral shaders next to
 its 5 nm reference and ΔE94 map, the protocol sphere per material through the GPU,
-and the frame time against an RGB baseline. Everything is measured in this run; the
+and the frame time against an RGB baseline; the EEVEE section (``demo_eevee.py``); the
+spectral PRT section (``demo_prt.py``: the ColorChecker under FL4 against RGB PRT and a
+5 nm reference, the Metacow). Everything is measured in this run; the
 report says how.
 """
 
@@ -30,6 +32,7 @@ sys.path.insert(0, str(REPO / "scripts"))
 import bpy  # noqa: E402
 import demo_eevee  # noqa: E402  (scripts/, next to this file)
 import demo_gpu  # noqa: E402
+import demo_prt  # noqa: E402
 
 from spectral_materials import blender as addon  # noqa: E402
 from spectral_materials.blender import eevee, jobs, sources, storage  # noqa: E402
@@ -293,14 +296,17 @@ def main() -> int:
     eevee_spheres = demo_eevee.sphere_table(list(analysis["factored"]))
     eevee_section = demo_eevee.eevee_section(scene, comparison, out / "images")
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))        # with the EEVEE node groups
+    prt_section = demo_prt.prt_section(out / "images")      # its own scenes, saved apart
     total = time.perf_counter() - start
     write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells,
                  demo_gpu.report_lines(gpu_scene, spheres, frame)
                  + demo_eevee.report_lines(eevee_section)
-                 + demo_eevee.sphere_lines(eevee_spheres))
+                 + demo_eevee.sphere_lines(eevee_spheres)
+                 + demo_prt.report_lines(prt_section))
     (out / "report.json").write_text(json.dumps(
         {"analysis": analysis, "figures": figures, "reload_bit_identical": reload,
          "gpu_scene": gpu_scene, "frame": frame, "eevee": eevee_section,
+         "prt": prt_section,
          "eevee_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
                            for k, v in eevee_spheres.items()],
          "gpu_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}

@@ -243,12 +243,14 @@ SKY_ITEMS = [
     ("UNIFORM", "Uniform", "The same radiance over the upper hemisphere"),
 ]
 WINDOW_ITEMS = [
-    ("LANCZOS", "Lanczos", "Damps ringing, blurs least: the most accurate against the Monte "
-     "Carlo reference (docs/bench_prt.md); any negative XYZ left is clipped"),
+    ("NONE", "None", "The plain truncated series, the most accurate against the Monte Carlo "
+     "reference (docs/bench_prt.md); the ringing of a sun is clipped where it would make "
+     "a colour negative"),
+    ("LANCZOS", "Lanczos", "Damps ringing, but also the low bands that carry most of a "
+     "diffuse surface's irradiance"),
     ("HANNING", "Hanning", "Damps ringing more; a sun can still leave small negative lobes"),
     ("CESARO", "Cesàro", "Keeps every band-limited reconstruction of a non-negative light "
      "non-negative; blurs most, so shading is least accurate"),
-    ("NONE", "None", "The plain truncated series: rings around sharp lights"),
 ]
 ALBEDO_KIND_ITEMS = [
     ("SPECTRUM", "Spectrum", "One reflectance spectrum over the whole object"),
@@ -292,7 +294,7 @@ class SPECTRAL_PG_environment(bpy.types.PropertyGroup):
     bands: IntProperty(name="SH bands", default=5, min=1, soft_min=2, max=8, update=_redraw,
                        description="Spherical-harmonic bands of light and transfer (5 = 25 "
                                    "coefficients); changing it needs a new bake")
-    window: EnumProperty(name="Window", items=WINDOW_ITEMS, default="LANCZOS", update=_redraw,
+    window: EnumProperty(name="Window", items=WINDOW_ITEMS, default="NONE", update=_redraw,
                          description="Per-band window against ringing of sharp lights")
     basis_size: IntProperty(name="Spectral basis", default=8, min=1, max=16, update=_redraw,
                             description="Linear-model basis vectors for the PRT spectra "

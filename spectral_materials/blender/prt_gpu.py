@@ -164,8 +164,17 @@ def prt_mesh_arrays(obj, mesh) -> PRTMeshArrays:
         mesh.uv_layers.active.uv.foreach_get("vector", uvs)
     tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
     mesh.loop_triangles.foreach_get("loops", tris)
-    return PRTMeshArrays(np.ascontiguousarray(co.reshape(-1, 3)[index]), uvs.reshape(-1, 2),
-                         index.astype(np.float32), tris.reshape(-1, 3), transfer)
+    # Corners that share a vertex and a UV are one GPU vertex: the vertex stage's T̃ · L̃
+    # then runs about once per mesh vertex instead of once per corner (≈ 4× on quads).
+    uvs = uvs.reshape(-1, 2)
+    keys = np.concatenate([index[:, None].view(np.float32), uvs], axis=1)
+    unique, first, inverse = np.unique(keys.view(np.dtype((np.void, 12))).ravel(),
+                                       return_index=True, return_inverse=True)
+    del unique
+    positions = co.reshape(-1, 3)[index[first]]
+    return PRTMeshArrays(np.ascontiguousarray(positions), np.ascontiguousarray(uvs[first]),
+                         index[first].astype(np.float32),
+                         inverse.astype(np.int32)[tris].reshape(-1, 3), transfer)
 
 
 def transfer_texels(transfer: np.ndarray, width: int = TRANSFER_WIDTH) -> np.ndarray:
