@@ -21,8 +21,7 @@ import bpy
 import numpy as np
 
 from spectral_materials.blender import draw, prt, prt_gpu, prt_images, scene_lights
-from spectral_materials.core import colour_pipeline, metamers, prt_reference, raycast, spectra
-from spectral_materials.core import prt as core_prt
+from spectral_materials.core import colour_pipeline, metamers, prt_reference, spectra
 from spectral_materials.core.formats.spectral_exr import write_spectral_exr
 
 WL = spectra.WAVELENGTHS_REFERENCE
@@ -104,19 +103,12 @@ def colorchecker_fl4(images: Path) -> dict:
     rgb_xyz = _render_rgb(scene)
     gpu_seconds = time.perf_counter() - start
     # The reference: 5 nm Monte Carlo irradiance at the vertices, interpolated.
-    points, normals, triangles, _ = prt.world_geometry(obj, bpy.context.evaluated_depsgraph_get())
-    occluder = raycast.Occluder(points, triangles)
-    reference_env = prt.reference_environment(scene)
     start = time.perf_counter()
-    irradiance = prt_reference.reference_irradiance(
-        points, normals, reference_env, lambda o, d: ~occluder.occluded(o, d), rays=4096,
-        offset=1e-4 * float(np.linalg.norm(points.max(0) - points.min(0))))
+    irradiance = prt.vertex_reference_irradiance(obj, scene, rays=4096)
     reference_seconds = time.perf_counter() - start
     pixel_e = prt_images.interpolate(geometry, irradiance)                     # (P, L)
     albedo = prt.vertex_albedo_spectra(obj, geometry.uv)                       # (P, L)
-    weights = core_prt.albedo_weights(np.ones(WL.size), WL)
-    white_y = float(prt_reference.white_irradiance(reference_env) @ weights[:, 1])
-    reference = (pixel_e * albedo) @ weights / white_y
+    reference = prt_reference.irradiance_xyz(pixel_e, albedo, prt.reference_environment(scene))
     white = prt.environment_white_xyz(scene)
     covered = geometry.covered
     de_spectral = colour_pipeline.delta_e94(reference, spectral_xyz[..., :3][covered], white)
@@ -138,7 +130,8 @@ def colorchecker_fl4(images: Path) -> dict:
     fig.savefig(images / "prt_colorchecker_fl4.png", dpi=80)
     plt.close(fig)
     bpy.ops.wm.save_as_mainfile(filepath=str(images.parent / "prt_colorchecker.blend"))
-    return {"vertices": len(obj.data.vertices), "triangles": int(len(triangles)),
+    obj.data.calc_loop_triangles()
+    return {"vertices": len(obj.data.vertices), "triangles": len(obj.data.loop_triangles),
             "rays": baked.rays, "bake_seconds": baked.seconds,
             "rays_per_second": baked.rays_per_second, "backend": baked.backend,
             "spectral": _stats(de_spectral), "rgb": _stats(de_rgb),

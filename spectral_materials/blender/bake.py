@@ -4,7 +4,7 @@
 offset along its normal), rays along a fixed spherical Fibonacci set of directions
 (``core.prt``) against the object's own triangles (self-shadowing only), and projects
 ``V(ω) max(n·ω, 0)`` onto the given SH basis. ``backend`` picks the ray caster:
-"bvhtree" is Blender's ``mathutils.bvhtree`` of the evaluated object (one ``ray_cast`` per
+"bvhtree" is Blender's ``mathutils.bvhtree`` of the same triangles (one ``ray_cast`` per
 ray: the baseline, which needs nothing beyond Blender); "embree", "numpy" (and the slow
 "reference") are ``core.raycast`` backends, given the evaluated mesh's loop triangles and
 asked in chunks of whole directions; "auto" takes the fastest available
@@ -81,6 +81,16 @@ def _loop_triangles(mesh) -> np.ndarray:
 
 
 @dataclass
+class MeshGeometry:
+    """An evaluated mesh as the bake needs it (plain arrays: safe to hand to a thread)."""
+
+    positions: np.ndarray             # (vertices, 3) object space
+    normals: np.ndarray               # (vertices, 3) unit (zero where undefined)
+    triangles: np.ndarray             # (T, 3) vertex indices of the loop triangles
+    key: str                          # geometry_key of the mesh
+
+
+@dataclass
 class Visibility:
     """Ray-cast visibility of an evaluated mesh's vertices along shared directions."""
 
@@ -94,10 +104,35 @@ class Visibility:
     backend: str
 
 
-def trace_visibility(obj, *, rays: int = 256, callback: ProgressCallback | None = None,
-                     depsgraph=None, backend: str = "auto",
-                     threads: int | None = None) -> Visibility:
-    """Visibility of ``obj``'s evaluated mesh from each vertex along ``rays`` directions.
+def unit_normals(normals: np.ndarray) -> np.ndarray:
+    """Normals scaled to unit length; zero stays zero (vertices of degenerate faces only,
+    whose transfer is then zero)."""
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.where(lengths > 0, normals / np.maximum(lengths, 1e-30), 0.0)
+
+
+def read_geometry(obj, depsgraph=None) -> MeshGeometry:
+    """The evaluated mesh of ``obj`` (main thread: it reads ``bpy`` data)."""
+    if obj is None or obj.type != "MESH":
+        raise ValueError(f"PRT bakes meshes; '{getattr(obj, 'name', obj)}' is not one")
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        if len(mesh.vertices) == 0 or len(mesh.polygons) == 0:
+            raise ValueError(f"Object '{obj.name}' has no faces to bake")
+        co, normals = _mesh_arrays(mesh)
+        return MeshGeometry(co, unit_normals(normals), _loop_triangles(mesh),
+                            geometry_key(mesh))
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def trace_geometry(geometry: MeshGeometry, *, rays: int = 256,
+                   callback: ProgressCallback | None = None, backend: str = "auto",
+                   threads: int | None = None) -> Visibility:
+    """Visibility from each vertex of ``geometry`` along ``rays`` directions (never touches
+    ``bpy`` data: safe in a worker thread).
 
     ``backend``: one of :data:`BACKENDS`; a named backend that cannot run here raises
     ``core.raycast.BackendUnavailable``. ``threads``: for the core.raycast backends
@@ -107,24 +142,10 @@ def trace_visibility(obj, *, rays: int = 256, callback: ProgressCallback | None 
 
     if backend not in BACKENDS:
         raise ValueError(f"unknown ray-casting backend {backend!r}; choose one of {BACKENDS}")
-    if obj is None or obj.type != "MESH":
-        raise ValueError(f"PRT bakes meshes; '{getattr(obj, 'name', obj)}' is not one")
     # "auto" without Embree is the BVHTree baseline (faster here than core.raycast's
     # "bvhtree", which converts every ray, and than "numpy": docs/bench_raycast.md).
     backend = "bvhtree" if backend == "bvhtree" else raycast.resolve(backend)
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
-        if len(mesh.vertices) == 0 or len(mesh.polygons) == 0:
-            raise ValueError(f"Object '{obj.name}' has no faces to bake")
-        co, normals = _mesh_arrays(mesh)
-        key = geometry_key(mesh)
-        triangles = _loop_triangles(mesh) if backend != "bvhtree" else None
-    finally:
-        evaluated.to_mesh_clear()
-    lengths = np.linalg.norm(normals, axis=1)
-    normals = np.where(lengths[:, None] > 0, normals / np.maximum(lengths, 1e-30)[:, None], 0.0)
+    co, normals, triangles = geometry.positions, geometry.normals, geometry.triangles
     directions = prt.fibonacci_directions(rays)
     offset = ORIGIN_OFFSET * float(np.linalg.norm(co.max(axis=0) - co.min(axis=0)) or 1.0)
     origins = co + offset * normals
@@ -132,7 +153,7 @@ def trace_visibility(obj, *, rays: int = 256, callback: ProgressCallback | None 
     if backend == "bvhtree":
         from mathutils.bvhtree import BVHTree
 
-        tree = BVHTree.FromObject(obj, depsgraph)
+        tree = BVHTree.FromPolygons(co.tolist(), triangles.tolist())
         built = time.perf_counter()
         visible, cast = _trace_bvhtree(tree, origins, normals, directions, callback)
     else:
@@ -141,28 +162,49 @@ def trace_visibility(obj, *, rays: int = 256, callback: ProgressCallback | None 
         above = normals @ directions.T > 0.0                     # (V, R): rays to cast
         visible, cast = _trace_chunks(occluder, origins, directions, above, callback)
     seconds = time.perf_counter() - built
-    return Visibility(visible, normals, directions, cast, seconds, built - start, key, backend)
+    return Visibility(visible, normals, directions, cast, seconds, built - start,
+                      geometry.key, backend)
+
+
+def trace_visibility(obj, *, rays: int = 256, callback: ProgressCallback | None = None,
+                     depsgraph=None, backend: str = "auto",
+                     threads: int | None = None) -> Visibility:
+    """Visibility of ``obj``'s evaluated mesh: :func:`read_geometry`, then
+    :func:`trace_geometry`."""
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown ray-casting backend {backend!r}; choose one of {BACKENDS}")
+    return trace_geometry(read_geometry(obj, depsgraph), rays=rays, callback=callback,
+                          backend=backend, threads=threads)
+
+
+def project_transfer(seen: Visibility, basis: np.ndarray,
+                     callback: ProgressCallback | None = None) -> TransferBake:
+    """Transfer vectors from visibility; ``basis`` (R, K) holds the basis functions at
+    ``seen.directions``."""
+    from ..core import prt
+
+    report(callback, 1.0, "projecting")
+    coefficients = prt.transfer_from_visibility(seen.normals, seen.directions, seen.visible,
+                                                np.asarray(basis, dtype=np.float64))
+    return TransferBake(coefficients.astype(np.float32), len(seen.directions),
+                        seen.rays_cast, seen.seconds, seen.key, seen.backend)
 
 
 def bake_transfer(obj, basis_fn, *, rays: int = 256,
                   callback: ProgressCallback | None = None, depsgraph=None,
                   backend: str = "auto", threads: int | None = None) -> TransferBake:
     """Transfer vectors of ``obj``'s evaluated mesh; ``basis_fn(directions) -> (R, K)``.
-    ``backend`` and ``threads`` as for :func:`trace_visibility`."""
+    ``backend`` and ``threads`` as for :func:`trace_geometry`."""
     from ..core import prt
 
-    basis = np.asarray(basis_fn(prt.fibonacci_directions(rays)), dtype=np.float64)
+    basis = basis_fn(prt.fibonacci_directions(rays))     # a bad basis fails before tracing
     seen = trace_visibility(obj, rays=rays, callback=callback, depsgraph=depsgraph,
                             backend=backend, threads=threads)
-    report(callback, 1.0, "projecting")
-    coefficients = prt.transfer_from_visibility(seen.normals, seen.directions, seen.visible,
-                                                basis)
-    return TransferBake(coefficients.astype(np.float32), rays, seen.rays_cast, seen.seconds,
-                        seen.key, seen.backend)
+    return project_transfer(seen, basis, callback)
 
 
 def _trace_bvhtree(tree, origins, normals, directions, callback):
-    """The baseline: Blender's BVHTree of the evaluated object, one ray_cast per ray."""
+    """The baseline: Blender's BVHTree of the triangles, one ray_cast per ray."""
     from mathutils import Vector
 
     count, rays = len(origins), len(directions)
@@ -218,11 +260,23 @@ def store_transfer(mesh, bake: TransferBake) -> None:
     mesh.update_tag()
 
 
+def transfer_names(mesh) -> list[str]:
+    """Names of the stored transfer attributes, in coefficient order."""
+    return sorted(a.name for a in mesh.attributes if a.name.startswith(ATTRIBUTE_PREFIX))
+
+
+def transfer_state(mesh) -> str:
+    """"absent", "stale" (the mesh changed since the bake) or "current"."""
+    if not transfer_names(mesh):
+        return "absent"
+    return "current" if mesh.get(KEY_PROPERTY) == geometry_key(mesh) else "stale"
+
+
 def load_transfer(mesh) -> np.ndarray | None:
     """The stored coefficients (vertices, K), or None when absent or stale."""
-    names = sorted(a.name for a in mesh.attributes if a.name.startswith(ATTRIBUTE_PREFIX))
-    if not names or mesh.get(KEY_PROPERTY) != geometry_key(mesh):
+    if transfer_state(mesh) != "current":
         return None
+    names = transfer_names(mesh)
     out = np.empty((len(mesh.vertices), len(names)), dtype=np.float32)
     for k, name in enumerate(names):
         column = np.empty(len(mesh.vertices), dtype=np.float32)
@@ -232,7 +286,7 @@ def load_transfer(mesh) -> np.ndarray | None:
 
 
 def clear_transfer(mesh) -> None:
-    for name in [a.name for a in mesh.attributes if a.name.startswith(ATTRIBUTE_PREFIX)]:
+    for name in transfer_names(mesh):
         mesh.attributes.remove(mesh.attributes[name])
     if KEY_PROPERTY in mesh:
         del mesh[KEY_PROPERTY]

@@ -135,15 +135,18 @@ class GPUMaterial:
 PARAMS_BYTES = 7 * 16 + 3 * 64
 
 
+def std140_mat4(matrix) -> np.ndarray:
+    """A 3 × 3 or 4 × 4 matrix as a std140 mat4 (float32, column-major, padded with the
+    identity)."""
+    m = np.eye(4)
+    a = np.asarray(matrix, dtype=np.float64)
+    m[: a.shape[0], : a.shape[1]] = a
+    return m.T.astype(np.float32)
+
+
 def params_block(u: MaterialUniforms, display: DisplaySettings, view_origin=(0, 0, 1, 0),
                  view_projection: np.ndarray | None = None, target_size=(0.0, 0.0)) -> bytes:
     """The std140 bytes of ``SmParams`` (glsl/params.glsl); matrices column-major."""
-    def mat4(m3_or_4) -> np.ndarray:
-        m = np.eye(4)
-        a = np.asarray(m3_or_4, dtype=np.float64)
-        m[: a.shape[0], : a.shape[1]] = a
-        return m.T.astype(np.float32)          # column-major
-
     adapt = colour_pipeline.bradford_matrix(np.asarray(display.scene_white))
     rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
     vp = np.eye(4) if view_projection is None else np.asarray(view_projection)
@@ -152,7 +155,8 @@ def params_block(u: MaterialUniforms, display: DisplaySettings, view_origin=(0, 
         np.asarray(u.axis_flags, np.int32), np.asarray(u.axis_cells, np.int32),
         np.asarray((u.edge_clamp, u.pack_rows, 0, 0), np.int32),
         np.asarray((display.exposure, display.tone_white, *target_size), np.float32),
-        np.asarray(view_origin, np.float32), mat4(adapt), mat4(rgb), mat4(vp),
+        np.asarray(view_origin, np.float32), std140_mat4(adapt), std140_mat4(rgb),
+        std140_mat4(vp),
     ]
     data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
     assert len(data) == PARAMS_BYTES

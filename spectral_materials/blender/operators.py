@@ -304,7 +304,7 @@ class SPECTRAL_OT_bake_prt(_ModalJob, bpy.types.Operator):
         from . import draw
 
         draw.redraw_viewports()
-        self.report({"INFO"}, f"'{plan.object_name}': {len(plan.positions)} vertices × "
+        self.report({"INFO"}, f"'{plan.object_name}': {len(plan.geometry.positions)} vertices × "
                               f"{plan.rays} rays in {result.seconds:.1f} s "
                               f"({result.rays_per_second / 1e6:.2f} M rays/s, "
                               f"{result.backend})")

@@ -399,10 +399,7 @@ class BakePlan:
     tracing may run in a worker thread)."""
 
     object_name: str
-    positions: np.ndarray            # (V, 3) object space
-    normals: np.ndarray              # (V, 3) unit (zero where undefined)
-    triangles: np.ndarray            # (T, 3)
-    key: str                         # bake.geometry_key of the evaluated mesh
+    geometry: bake.MeshGeometry
     rays: int
     bands: int
     backend: str = "auto"
@@ -411,7 +408,6 @@ class BakePlan:
 def plan_bake(obj, scene=None, *, backend: str = "auto", depsgraph=None) -> BakePlan:
     """Check ``obj`` and read its evaluated mesh for :func:`run_bake`."""
     scene = scene or bpy.context.scene
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     if obj is None or obj.type != "MESH":
         raise PRTError(f"PRT bakes meshes; '{getattr(obj, 'name', obj)}' is not one")
     albedo_source(obj)                     # a bad albedo fails before the long part
@@ -419,49 +415,24 @@ def plan_bake(obj, scene=None, *, backend: str = "auto", depsgraph=None) -> Bake
     if not 1 <= rays <= core_prt.MAX_RAYS:
         raise PRTError(f"Object '{obj.name}': rays per vertex must be 1..{core_prt.MAX_RAYS}, "
                        f"got {rays}")
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
     try:
-        if len(mesh.vertices) != len(obj.data.vertices):
-            raise PRTError(f"Object '{obj.name}': its modifiers change the vertex count "
-                           f"({len(obj.data.vertices)} → {len(mesh.vertices)}); PRT stores the "
-                           "transfer per mesh vertex, so apply those modifiers first")
-        if len(mesh.vertices) == 0 or len(mesh.polygons) == 0:
-            raise PRTError(f"Object '{obj.name}' has no faces to bake")
-        co, normals = bake._mesh_arrays(mesh)
-        triangles = bake._loop_triangles(mesh)
-        key = bake.geometry_key(mesh)
-    finally:
-        evaluated.to_mesh_clear()
-    if not np.isfinite(co).all():
+        geometry = bake.read_geometry(obj, depsgraph)
+    except ValueError as exc:
+        raise PRTError(str(exc)) from None
+    if len(geometry.positions) != len(obj.data.vertices):
+        raise PRTError(f"Object '{obj.name}': its modifiers change the vertex count "
+                       f"({len(obj.data.vertices)} → {len(geometry.positions)}); PRT stores "
+                       "the transfer per mesh vertex, so apply those modifiers first")
+    if not np.isfinite(geometry.positions).all():
         raise PRTError(f"Object '{obj.name}' has non-finite vertex positions")
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    # Vertices of degenerate faces only have no normal: their transfer is zero (black).
-    normals = np.where(lengths > 0, normals / np.maximum(lengths, 1e-30), 0.0)
-    return BakePlan(obj.name, co, normals, triangles, key, rays,
-                    int(scene.spectral.environment.bands), backend)
+    return BakePlan(obj.name, geometry, rays, int(scene.spectral.environment.bands), backend)
 
 
 def run_bake(plan: BakePlan, callback=None) -> bake.TransferBake:
-    """Trace and project (never touches ``bpy``: safe in a worker thread)."""
-    import time
-
-    from ..core import raycast
-    from ..core.progress import report
-
-    directions = core_prt.fibonacci_directions(plan.rays)
-    extent = float(np.linalg.norm(plan.positions.max(axis=0) - plan.positions.min(axis=0)))
-    origins = plan.positions + bake.ORIGIN_OFFSET * (extent or 1.0) * plan.normals
-    occluder = raycast.Occluder(plan.positions, plan.triangles, backend=plan.backend)
-    start = time.perf_counter()
-    above = plan.normals @ directions.T > 0.0
-    visible, cast = bake._trace_chunks(occluder, origins, directions, above, callback)
-    seconds = time.perf_counter() - start
-    report(callback, 1.0, "projecting")
-    coefficients = core_prt.transfer_from_visibility(plan.normals, directions, visible,
-                                                     sh.sh_basis(directions, plan.bands))
-    return bake.TransferBake(coefficients.astype(np.float32), plan.rays, cast, seconds,
-                             plan.key, occluder.backend)
+    """Trace and project (never touches ``bpy`` data: safe in a worker thread)."""
+    seen = bake.trace_geometry(plan.geometry, rays=plan.rays, callback=callback,
+                               backend=plan.backend)
+    return bake.project_transfer(seen, sh.sh_basis(seen.directions, plan.bands), callback)
 
 
 def commit_bake(scene, plan: BakePlan, result: bake.TransferBake) -> None:
@@ -619,10 +590,31 @@ def world_geometry(obj, depsgraph) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
         evaluated.to_mesh_clear()
     matrix = np.array(obj.matrix_world)
     world = co @ matrix[:3, :3].T + matrix[:3, 3]
-    normals = normals @ np.linalg.inv(matrix[:3, :3])
-    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
-    normals = np.where(lengths > 0, normals / np.maximum(lengths, 1e-30), 0.0)
-    return world, normals, triangles, uv
+    return world, bake.unit_normals(normals @ np.linalg.inv(matrix[:3, :3])), triangles, uv
+
+
+def _reference_inputs(obj, depsgraph):
+    """(points, normals, vertex UVs, visibility function, ray offset) in world space."""
+    from ..core import raycast
+
+    points, normals, triangles, uv = world_geometry(obj, depsgraph)
+    occluder = raycast.Occluder(points, triangles)
+    extent = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)) or 1.0)
+    return (points, normals, uv, lambda o, d: ~occluder.occluded(o, d),
+            bake.ORIGIN_OFFSET * extent)
+
+
+def vertex_reference_irradiance(obj, scene=None, depsgraph=None, *, rays: int = 4096,
+                                seed: int = 0) -> np.ndarray:
+    """Monte Carlo spectral irradiance (V, L) at ``obj``'s vertices (world space, 5 nm, the
+    true environment, the object's own triangles as occluders)."""
+    from ..core import prt_reference
+
+    scene = scene or bpy.context.scene
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    points, normals, _, visible, offset = _reference_inputs(obj, depsgraph)
+    return prt_reference.reference_irradiance(points, normals, reference_environment(scene),
+                                              visible, rays=rays, seed=seed, offset=offset)
 
 
 def vertex_reference_xyz(obj, scene=None, depsgraph=None, *, rays: int = 4096,
@@ -630,25 +622,23 @@ def vertex_reference_xyz(obj, scene=None, depsgraph=None, *, rays: int = 4096,
     """The Monte Carlo reference of :func:`vertex_xyz`: 5 nm, the true (unprojected)
     environment, the same self-visibility (the object's own triangles), ``rays``
     cosine-distributed rays per vertex."""
-    from ..core import prt_reference, raycast
+    from ..core import prt_reference
 
     scene = scene or bpy.context.scene
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    points, normals, triangles, uv = world_geometry(obj, depsgraph)
-    occluder = raycast.Occluder(points, triangles)
-    extent = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)) or 1.0)
+    points, normals, uv, visible, offset = _reference_inputs(obj, depsgraph)
     return prt_reference.reference_vertex_xyz(
         points, normals, vertex_albedo_spectra(obj, uv), reference_environment(scene),
-        lambda o, d: ~occluder.occluded(o, d), rays=rays, seed=seed,
-        offset=bake.ORIGIN_OFFSET * extent)
+        visible, rays=rays, seed=seed, offset=offset)
 
 
 def transfer_status(obj) -> str:
     """One line for the panel: baked (how), stale, or not baked."""
     mesh = obj.data
-    names = [a.name for a in mesh.attributes if a.name.startswith(bake.ATTRIBUTE_PREFIX)]
-    if not names:
+    state = bake.transfer_state(mesh)
+    if state == "absent":
         return "Not baked"
-    if mesh.get(bake.KEY_PROPERTY) != bake.geometry_key(mesh):
+    if state == "stale":
         return "Stale: the mesh changed since the bake; bake again"
-    return f"Baked: {len(mesh.vertices)} vertices × {len(names)} SH coefficients"
+    return f"Baked: {len(mesh.vertices)} vertices × {len(bake.transfer_names(mesh))} SH " \
+        "coefficients"

@@ -23,9 +23,9 @@ import numpy as np
 
 from ..core import colour_pipeline
 from ..core import prt as core_prt
-from . import bake, mesh_batches, prt
+from . import bake, mesh_batches, prt, shaders
 from .gpu_context import ensure_gpu
-from .gpu_material import DisplaySettings, float_texture
+from .gpu_material import DisplaySettings, float_texture, std140_mat4
 from .shaders import OUTPUTS, glsl_source
 
 TRANSFER_WIDTH = 4096
@@ -34,7 +34,6 @@ MAX_COEFFICIENTS = 16
 PRT_OUTPUTS = dict(OUTPUTS, PRIMITIVE=6)
 PARAMS_BYTES = 4 * 64 + 2 * 16
 
-_SHADERS: dict = {}
 _OBJECTS: dict[str, dict] = {}
 #: PRT objects that could not be drawn: name → reason (shown in the panel).
 FAILED: dict[str, str] = {}
@@ -98,29 +97,17 @@ def create_info(key: PRTShaderKey):
 
 
 def get_shader(key: PRTShaderKey):
-    shader = _SHADERS.get(key)
-    if shader is None:
-        import gpu
-
-        ensure_gpu()
-        shader = gpu.shader.create_from_info(create_info(key))
-        _SHADERS[key] = shader
-    return shader
+    """The compiled PRT variant (cached with the other variants in ``shaders``)."""
+    return shaders.get_shader(key, create_info)
 
 
 def params_block(view_projection: np.ndarray, display: DisplaySettings,
                  transfer_width: int, albedo_size: tuple[int, int]) -> bytes:
     """The std140 bytes of ``SmPrtParams`` (glsl/prt_params.glsl), matrices column-major."""
-    def mat4(m) -> np.ndarray:
-        out = np.eye(4)
-        a = np.asarray(m, dtype=np.float64)
-        out[: a.shape[0], : a.shape[1]] = a
-        return out.T.astype(np.float32)
-
     to_rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
-    parts = [mat4(view_projection),
-             mat4(colour_pipeline.bradford_matrix(np.asarray(display.scene_white))),
-             mat4(to_rgb), mat4(np.linalg.inv(to_rgb)),
+    parts = [std140_mat4(view_projection),
+             std140_mat4(colour_pipeline.bradford_matrix(np.asarray(display.scene_white))),
+             std140_mat4(to_rgb), std140_mat4(np.linalg.inv(to_rgb)),
              np.asarray((display.exposure, display.tone_white, 0.0, 0.0), np.float32),
              np.asarray((transfer_width, albedo_size[0], albedo_size[1], 0), np.int32)]
     data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
@@ -262,7 +249,6 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
         entry["albedo"] = array_texture(data)
         entry["albedo_size"] = (data.shape[2], data.shape[1])
         entry["albedo_key"] = albedo_key
-        entry["albedo_bytes"] = int(data.size * 4 // 3 * 4)
     entry["coefficients"] = 3 if rgb else layers.layers.shape[0]
     return entry
 
@@ -306,6 +292,5 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
 
 
 def clear_cache() -> None:
-    _SHADERS.clear()
     _OBJECTS.clear()
     FAILED.clear()

@@ -121,8 +121,10 @@ def create_info(key: ShaderKey):
     return info
 
 
-def get_shader(key: ShaderKey):
-    """The compiled variant for ``key`` (cached)."""
+def get_shader(key, create=None):
+    """The compiled variant for ``key`` (cached): ``create(key)`` gives its create-info,
+    :func:`create_info` by default (other shader families, e.g. ``prt_gpu``, pass theirs;
+    their keys are other types, so they never collide)."""
     shader = _CACHE.get(key)
     if shader is None:
         import gpu
@@ -130,7 +132,7 @@ def get_shader(key: ShaderKey):
         from .gpu_context import ensure_gpu
 
         ensure_gpu()
-        shader = gpu.shader.create_from_info(create_info(key))
+        shader = gpu.shader.create_from_info((create or create_info)(key))
         _CACHE[key] = shader
     return shader
 

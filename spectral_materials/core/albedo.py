@@ -225,6 +225,25 @@ def _resampling_matrix(source: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(target, source, e) for e in np.eye(source.size)])
 
 
+def _read_reflective(path: str | Path):
+    """The reflective layer of a spectral OpenEXR, checked (see read_reflectance_exr)."""
+    from .formats.spectral_exr import (
+        InvalidSpectralImage,
+        SpectralEXRFileNotFound,
+        read_spectral_exr,
+    )
+
+    try:
+        image = read_spectral_exr(path, kind="reflective")
+    except SpectralEXRFileNotFound:
+        raise
+    except InvalidSpectralImage as exc:
+        raise InvalidSpectralImage(f"{exc} (an albedo texture is read from the reflective "
+                                   "layer, T.<λ> channels)") from None
+    _check_reflectance(image.values, f"{path}: reflective layer")
+    return image
+
+
 def read_reflectance_exr(path: str | Path, wavelengths: np.ndarray) -> np.ndarray:
     """Reflectance spectra (H, W, L) float32 of a spectral OpenEXR's reflective layer,
     resampled to ``wavelengths``, row 0 at the bottom.
@@ -243,21 +262,8 @@ def read_reflectance_exr(path: str | Path, wavelengths: np.ndarray) -> np.ndarra
         samples (with their count); a missing file raises ``SpectralEXRFileNotFound``
         (a ValueError and a FileNotFoundError).
     """
-    from .formats.spectral_exr import (
-        InvalidSpectralImage,
-        SpectralEXRFileNotFound,
-        read_spectral_exr,
-    )
-
     wl = spectra.check_wavelengths(wavelengths)
-    try:
-        image = read_spectral_exr(path, kind="reflective")
-    except SpectralEXRFileNotFound:
-        raise
-    except InvalidSpectralImage as exc:
-        raise InvalidSpectralImage(f"{exc} (an albedo texture is read from the reflective "
-                                   "layer, T.<λ> channels)") from None
-    _check_reflectance(image.values, f"{path}: reflective layer")
+    image = _read_reflective(path)
     matrix = _resampling_matrix(np.asarray(image.wavelengths, dtype=np.float64), wl)
     height, width, count = image.values.shape
     flat = image.values.reshape(-1, count)
@@ -277,23 +283,10 @@ def albedo_layers_from_spectral_exr(path: str | Path, wavelengths: np.ndarray,
     The resampling and the CMF weighting are both linear, so they are applied as one
     matrix to the file's samples, without materialising the resampled spectra.
     """
-    from .formats.spectral_exr import (
-        InvalidSpectralImage,
-        SpectralEXRFileNotFound,
-        read_spectral_exr,
-    )
-
     wl = spectra.check_wavelengths(wavelengths)
     basis_array = None if basis is None else np.asarray(basis, dtype=np.float64)
     kernel = _kernel(wl, basis_array)                                   # (L, m, 3)
-    try:
-        image = read_spectral_exr(path, kind="reflective")
-    except SpectralEXRFileNotFound:
-        raise
-    except InvalidSpectralImage as exc:
-        raise InvalidSpectralImage(f"{exc} (an albedo texture is read from the reflective "
-                                   "layer, T.<λ> channels)") from None
-    _check_reflectance(image.values, f"{path}: reflective layer")
+    image = _read_reflective(path)
     matrix = _resampling_matrix(np.asarray(image.wavelengths, dtype=np.float64), wl)
     file_kernel = np.tensordot(matrix, kernel, axes=([1], [0]))        # (L_file, m, 3)
     layers = _apply(image.values, file_kernel)

@@ -341,10 +341,18 @@ def reference_vertex_xyz(points: np.ndarray, normals: np.ndarray, albedo: np.nda
         raise ValueError(f"albedo has {negative} negative values")
     irradiance = reference_irradiance(points, normals, environment, visible, rays=rays,
                                       seed=seed, offset=offset)
-    # XYZ = Σ_λ E(λ) · albedo(λ) m̄(λ) Δλ / π: prt.albedo_weights, the PRT's own R.
+    return irradiance_xyz(irradiance, albedo, environment)
+
+
+def irradiance_xyz(irradiance: np.ndarray, albedo: np.ndarray,
+                   environment: ReferenceEnvironment) -> np.ndarray:
+    """XYZ (N, 3) of diffuse surfaces with spectral ``irradiance`` (N, L) and ``albedo``
+    ((L,) or (N, L)): ``Σ_λ E(λ) albedo(λ) m̄(λ) Δλ / π`` (``prt.albedo_weights``, the PRT's
+    own R) over the Y of the white facing +z under ``environment``."""
+    wl = environment.wavelengths
     weights = prt.albedo_weights(np.ones(wl.size), wl)                        # (L, 3)
     white_y = float(white_irradiance(environment) @ weights[:, 1])
     if not white_y > 0:
         raise ValueError("the environment sends no light onto an upward surface; it has no "
                          "white to normalise by")
-    return (irradiance * albedo) @ weights / white_y
+    return (np.asarray(irradiance) * albedo) @ weights / white_y
