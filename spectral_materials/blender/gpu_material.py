@@ -10,6 +10,7 @@ factor, compounded over 4 axes and 48 packs. The light texture comes from
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,6 +136,19 @@ class GPUMaterial:
 PARAMS_BYTES = 7 * 16 + 3 * 64
 
 
+@functools.lru_cache(maxsize=16)
+def display_matrices(scene_white: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """std140 mat4s of the display pipeline for a scene white: Bradford (white → D65),
+    XYZ → linear sRGB and its inverse. Cached: every draw of every material asks, and
+    colour-science's Bradford costs a fraction of a millisecond each time."""
+    to_rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
+    out = (std140_mat4(colour_pipeline.bradford_matrix(np.asarray(scene_white))),
+           std140_mat4(to_rgb), std140_mat4(np.linalg.inv(to_rgb)))
+    for matrix in out:
+        matrix.setflags(write=False)
+    return out
+
+
 def std140_mat4(matrix) -> np.ndarray:
     """A 3 × 3 or 4 × 4 matrix as a std140 mat4 (float32, column-major, padded with the
     identity)."""
@@ -147,16 +161,14 @@ def std140_mat4(matrix) -> np.ndarray:
 def params_block(u: MaterialUniforms, display: DisplaySettings, view_origin=(0, 0, 1, 0),
                  view_projection: np.ndarray | None = None, target_size=(0.0, 0.0)) -> bytes:
     """The std140 bytes of ``SmParams`` (glsl/params.glsl); matrices column-major."""
-    adapt = colour_pipeline.bradford_matrix(np.asarray(display.scene_white))
-    rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
+    adapt, rgb, _ = display_matrices(tuple(display.scene_white))
     vp = np.eye(4) if view_projection is None else np.asarray(view_projection)
     parts = [
         np.asarray(u.axis_lo, np.float32), np.asarray(u.axis_span, np.float32),
         np.asarray(u.axis_flags, np.int32), np.asarray(u.axis_cells, np.int32),
         np.asarray((u.edge_clamp, u.pack_rows, 0, 0), np.int32),
         np.asarray((display.exposure, display.tone_white, *target_size), np.float32),
-        np.asarray(view_origin, np.float32), std140_mat4(adapt), std140_mat4(rgb),
-        std140_mat4(vp),
+        np.asarray(view_origin, np.float32), adapt, rgb, std140_mat4(vp),
     ]
     data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
     assert len(data) == PARAMS_BYTES

@@ -21,11 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core import colour_pipeline
 from ..core import prt as core_prt
 from . import bake, mesh_batches, prt, shaders
 from .gpu_context import ensure_gpu
-from .gpu_material import DisplaySettings, float_texture, std140_mat4
+from .gpu_material import DisplaySettings, display_matrices, float_texture, std140_mat4
 from .shaders import OUTPUTS, glsl_source
 
 TRANSFER_WIDTH = 4096
@@ -104,10 +103,8 @@ def get_shader(key: PRTShaderKey):
 def params_block(view_projection: np.ndarray, display: DisplaySettings,
                  transfer_width: int, albedo_size: tuple[int, int]) -> bytes:
     """The std140 bytes of ``SmPrtParams`` (glsl/prt_params.glsl), matrices column-major."""
-    to_rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
-    parts = [std140_mat4(view_projection),
-             std140_mat4(colour_pipeline.bradford_matrix(np.asarray(display.scene_white))),
-             std140_mat4(to_rgb), std140_mat4(np.linalg.inv(to_rgb)),
+    adapt, to_rgb, to_xyz = display_matrices(tuple(display.scene_white))
+    parts = [std140_mat4(view_projection), adapt, to_rgb, to_xyz,
              np.asarray((display.exposure, display.tone_white, 0.0, 0.0), np.float32),
              np.asarray((transfer_width, albedo_size[0], albedo_size[1], 0), np.int32)]
     data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
