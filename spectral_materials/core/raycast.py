@@ -12,7 +12,8 @@ Backends, in the order ``backend="auto"`` tries them (fastest first, as measured
 ``embree``
     Intel Embree 4 through ``embreex`` (optional: imported lazily; "auto" skips it when
     it is missing or fails to load). float32; queries run on ``threads`` threads (embreex
-    releases the GIL). 4.7–4.9× the bake's BVHTree rays/s on one thread, 6.9–7.1× on two.
+    releases the GIL). 4.9–5.3× the bake's BVHTree rays/s on one thread
+    (docs/bench_raycast.md).
 ``bvhtree``
     Blender's ``mathutils.bvhtree.BVHTree`` (float32), one ``ray_cast`` per ray from
     Python; only where ``mathutils`` imports (inside Blender, or once the ``bpy`` module
@@ -27,8 +28,8 @@ Backends, in the order ``backend="auto"`` tries them (fastest first, as measured
     (the same predicate as Möller–Trumbore, evaluated in that frame), in float64.
     Directions are spread over ``threads`` threads (NumPy releases the GIL in its loops);
     directions with fewer than :data:`SMALL_GROUP` rays go through the brute-force
-    reference instead. Measured at 0.35–0.65× the bake's BVHTree rays/s on one thread and
-    0.8–1.0× on two, relatively slower on larger meshes: it does not beat BVHTree, and is
+    reference instead. Measured at 0.4–0.6× the bake's BVHTree rays/s on one thread and
+    0.5–0.7× on two, relatively slower on larger meshes: it does not beat BVHTree, and is
     here as the fallback that needs neither Blender nor a compiled package.
 ``reference``
     Brute-force Möller–Trumbore in float64 over every (ray, triangle) pair, O(R·T): the
