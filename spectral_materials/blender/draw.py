@@ -23,7 +23,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ..core.shading import View
-from . import mesh_batches, prt, prt_gpu, scene_lights, shaders, storage
+from . import btf_gpu, btf_storage, mesh_batches, prt, prt_gpu, scene_lights, shaders, storage
 from .gpu_material import DisplaySettings, GPUMaterial
 from .offscreen import Target
 from .scene import GEOMETRY_TYPES, _renders
@@ -66,7 +66,7 @@ def viewport_summary() -> str:
 def failed_materials() -> list[tuple[str, str]]:
     """(what, reason) for materials the draw path refused and a stopped viewport draw."""
     out = [(name, reason) for name, (_, reason) in sorted(FAILED.items())]
-    out += sorted(prt_gpu.FAILED.items())
+    out += sorted(prt_gpu.FAILED.items()) + sorted(btf_gpu.FAILED.items())
     return out + ([("Viewport", VIEWPORT_ERROR)] if VIEWPORT_ERROR else [])
 
 
@@ -96,6 +96,13 @@ def gpu_material(material) -> GPUMaterial | None:
         return None
     _MATERIALS[material.name] = (key, resource)
     return resource
+
+
+def _resource(material):
+    """What draws ``material``: its factor packs, its BTF, or None (an occluder)."""
+    if btf_storage.has_btf(material):
+        return btf_gpu.btf_material(material)
+    return gpu_material(material)
 
 
 def _occluder_shader():
@@ -152,7 +159,7 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
     for obj in drawable_objects(scene):
         if obj in prt_objects:
             continue            # drawn below, by the PRT shaders
-        slots = {i: gpu_material(s.material)
+        slots = {i: _resource(s.material)
                  if s.material is not None and (only is None or s.material.name in only)
                  else None for i, s in enumerate(obj.material_slots)}
         if not occluders and not any(r is not None for r in slots.values()):
@@ -183,10 +190,17 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
             if resource is None:
                 continue
             key = resource.key(light_list, output=output)
-            shader = shaders.get_shader(key)
-            params = resource.params(display, view_origin=view.uniform(), view_projection=vp)
-            resource.bind(shader, resource.light_texture(light_list, key.precontract,
-                                                         lights_key), params)
+            if isinstance(resource, btf_gpu.BTFMaterial):
+                shader = btf_gpu.get_shader(key)
+                # Held until the draw: a freed uniform buffer leaves the block unbound.
+                params = resource.params(display, view.uniform(), vp)
+                resource.bind(shader, resource.light_texture(light_list, lights_key), params)
+            else:
+                shader = shaders.get_shader(key)
+                params = resource.params(display, view_origin=view.uniform(),
+                                         view_projection=vp)
+                resource.bind(shader, resource.light_texture(light_list, key.precontract,
+                                                             lights_key), params)
             set_matrix(shader, "model_matrix", model_matrix)
             set_matrix(shader, "normal_matrix", normal_matrix)
             batch.draw(shader)
@@ -322,6 +336,7 @@ def reset() -> None:
     shaders.clear_cache()
     prt_gpu.clear_cache()
     prt.clear_cache()
+    btf_gpu.clear_cache()
     global _OCCLUDER_SHADER
     _OCCLUDER_SHADER = None
 

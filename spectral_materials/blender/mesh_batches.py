@@ -2,7 +2,8 @@
 
 Vertices are mesh corners (loops), so that split normals and UV tangents stay per
 corner: ``position`` (object space), ``normal`` (the corner normal) and ``tangent``
-(xyz from the active UV map's tangent space, w its bitangent sign). A mesh without
+(xyz from the active UV map's tangent space, w its bitangent sign) and ``uv`` (the
+active UV map; BTF materials read it). A mesh without
 UVs, or whose tangents cannot be computed, gets zero tangents: the shader then
 uses the generated field (glsl/frame.glsl). One index buffer per material slot.
 
@@ -27,13 +28,14 @@ class MeshArrays:
     positions: np.ndarray                  # (C, 3) float32
     normals: np.ndarray                    # (C, 3) float32
     tangents: np.ndarray                   # (C, 4) float32
+    uvs: np.ndarray                        # (C, 2) float32, zeros without a UV map
     triangles: dict[int, np.ndarray] = field(default_factory=dict)  # slot → (T, 3) int32
     has_tangents: bool = False
 
     @property
     def nbytes(self) -> int:
         return int(self.positions.nbytes + self.normals.nbytes + self.tangents.nbytes
-                   + sum(t.nbytes for t in self.triangles.values()))
+                   + self.uvs.nbytes + sum(t.nbytes for t in self.triangles.values()))
 
 
 def mesh_arrays(mesh) -> MeshArrays:
@@ -48,7 +50,10 @@ def mesh_arrays(mesh) -> MeshArrays:
     normals = np.empty(corners * 3, dtype=np.float32)
     mesh.corner_normals.foreach_get("vector", normals)
     tangents = np.zeros((corners, 4), dtype=np.float32)
+    uvs = np.zeros((corners, 2), dtype=np.float32)
     has_tangents = False
+    if mesh.uv_layers.active is not None and corners:
+        mesh.uv_layers.active.uv.foreach_get("vector", uvs.ravel())
     if mesh.uv_layers.active is not None and corners:
         try:
             mesh.calc_tangents(uvmap=mesh.uv_layers.active.name)
@@ -74,10 +79,10 @@ def mesh_arrays(mesh) -> MeshArrays:
     if not finite:
         raise ValueError(f"mesh '{mesh.name}' has non-finite vertex positions or normals")
     return MeshArrays(np.ascontiguousarray(positions), normals.reshape(-1, 3), tangents,
-                      triangles, has_tangents)
+                      uvs, triangles, has_tangents)
 
 
-VERTEX_ATTRIBUTES = (("position", 3), ("normal", 3), ("tangent", 4))
+VERTEX_ATTRIBUTES = (("position", 3), ("normal", 3), ("tangent", 4), ("uv", 2))
 
 
 @dataclass
@@ -98,6 +103,7 @@ class MeshBatches:
         vbo.attr_fill("position", arrays.positions)
         vbo.attr_fill("normal", arrays.normals)
         vbo.attr_fill("tangent", arrays.tangents)
+        vbo.attr_fill("uv", arrays.uvs)
         batches = {}
         for slot, tris in arrays.triangles.items():
             if len(tris):

@@ -1,0 +1,93 @@
+/* Reflectance-field BTF (Meseth, Müller, Klein 2003, §5.1): per light, the fitted
+ * luminance RF_v'(x, l) of the three measured views around the local view direction,
+ * blended with barycentric weights, times the texel's spectral albedo under that
+ * light. Mirrors spectral_materials/core/btf_render.py DrawableBTF.shade_xyz.
+ * SM_BTF_KIND 0: RFP (biquadratic in l.x, l.y); 1: RFNL (ρd + Σ a_j max(t̂_j·l, 0)^n_j,
+ * unit t̂ so that nothing overflows). Parameters are fetched unfiltered (nearest texel,
+ * repeat). SM_OUTPUT 0 writes XYZ, 1 display sRGB, 2 the world position, 3 the
+ * normal facing the viewer, 4 the raw tangent, 5 the UV. */
+
+vec4 sm_btf_record(int record, ivec2 texel)
+{
+  int layer = record / sm.tiles.z;
+  int tile = record - layer * sm.tiles.z;
+  ivec2 offset = ivec2(tile % sm.tiles.w, tile / sm.tiles.w) * sm.tiles.xy;
+  return texelFetch(record_tex, ivec3(texel + offset, layer), 0);
+}
+
+float sm_btf_luminance(int view, ivec2 texel, vec3 l)
+{
+  int base = sm.counts.x + view * sm.counts.y;
+  vec4 p0 = sm_btf_record(base, texel);
+#if SM_BTF_KIND == 0
+  vec4 p1 = sm_btf_record(base + 1, texel);
+  float y = p0.x * l.x * l.x + p0.y * l.y * l.y + p0.z * l.x * l.y + p0.w * l.x
+            + p1.x * l.y + p1.y;
+#else
+  float y = p0.x;
+  for (int j = 0; j < SM_BTF_LOBES; j++) {
+    vec4 lobe = sm_btf_record(base + 1 + j, texel);
+    y += p0[1 + j] * pow(max(dot(lobe.xyz, l), 0.0), lobe.w);
+  }
+#endif
+  return max(y, 0.0);
+}
+
+void main()
+{
+  vec3 P = world_position;
+  vec3 N = sm_safe_normalize(world_normal, vec3(0.0, 0.0, 1.0));
+  vec3 V = sm.view_origin.w > 0.5 ? sm_safe_normalize(sm.view_origin.xyz - P, N) :
+                                 sm.view_origin.xyz;
+  /* Two-sided: a face seen from behind is shaded with its normal flipped. */
+  if (dot(N, V) < 0.0) {
+    N = -N;
+  }
+#if SM_OUTPUT == 2
+  frag_colour = vec4(P, 1.0);
+#elif SM_OUTPUT == 3
+  frag_colour = vec4(N, 1.0);
+#elif SM_OUTPUT == 4
+  frag_colour = vec4(world_tangent, 1.0);
+#elif SM_OUTPUT == 5
+  frag_colour = vec4(tex_uv, 0.0, 1.0);
+#else
+  mat3 frame = sm_frame(N, world_tangent);
+  vec3 v = sm_to_local(frame, V);
+  ivec3 views;
+  vec3 w;
+  sm_btf_views(v, views, w);
+  vec2 st = tex_uv * sm.uv_scale.xy;
+  vec2 f = st - floor(st);
+  ivec2 texel = clamp(ivec2(floor(f * vec2(sm.tiles.xy))), ivec2(0), sm.tiles.xy - 1);
+  float c[4 * SM_BTF_ALBEDO_RECORDS];
+  for (int r = 0; r < SM_BTF_ALBEDO_RECORDS; r++) {
+    vec4 a = sm_btf_record(r, texel);
+    c[4 * r] = a.x;
+    c[4 * r + 1] = a.y;
+    c[4 * r + 2] = a.z;
+    c[4 * r + 3] = a.w;
+  }
+  vec3 xyz = vec3(0.0);
+  for (int light = 0; light < SM_LIGHTS; light++) {
+    vec3 wi_world;
+    float irradiance = sm_light_incidence(light, P, wi_world);
+    vec3 l = sm_to_local(frame, wi_world);
+    if (irradiance > 0.0 && l.z > 0.0) {
+      float y = w.x * sm_btf_luminance(views.x, texel, l) +
+                w.y * sm_btf_luminance(views.y, texel, l) +
+                w.z * sm_btf_luminance(views.z, texel, l);
+      vec3 albedo_xyz = vec3(0.0);
+      for (int j = 0; j < SM_BTF_COEFFS; j++) {
+        albedo_xyz += c[j] * texelFetch(light_tex, ivec2(SM_LIGHT_HEADER + j, light), 0).xyz;
+      }
+      xyz += (irradiance * y / SM_PI) * albedo_xyz;
+    }
+  }
+#  if SM_OUTPUT == 0
+  frag_colour = vec4(xyz, 1.0);
+#  else
+  frag_colour = vec4(sm_xyz_to_display(xyz), 1.0);
+#  endif
+#endif
+}
