@@ -1,7 +1,8 @@
 /* The three measured views around a local view direction and their barycentric
  * weights. Mirrors spectral_materials/core/btf.py HemisphereTriangulation.weights:
- * the azimuthal-equidistant image of v picks a cell of a grid × grid table listing up
- * to 8 candidate triangles (cell_tex, two texels per cell); per triangle, triangle_tex
+ * the azimuthal-equidistant image of v picks a cell of a grid × grid table (cell_tex:
+ * first entry and count of its candidate triangles in candidate_tex, entry i at
+ * (i % SM_BTF_LIST_WIDTH, i / SM_BTF_LIST_WIDTH)); per triangle, triangle_tex
  * holds the rows of M⁻¹ (M = the three view directions as columns) in xyz and the view
  * indices in w, three texels a row. The first candidate with all weights ≥ −1e-6
  * wins; else the best one, clamped and renormalised (views beyond the last ring). */
@@ -22,17 +23,16 @@ void sm_btf_views(vec3 v, out ivec3 views, out vec3 weights)
   int grid = sm.counts.z;
   ivec2 cell = clamp(ivec2(floor((sm_hemisphere_plane(v) + 1.0) * 0.5 * float(grid))),
                      ivec2(0), ivec2(grid - 1));
-  vec4 lists[2];
-  lists[0] = texelFetch(cell_tex, ivec2(2 * cell.x, cell.y), 0);
-  lists[1] = texelFetch(cell_tex, ivec2(2 * cell.x + 1, cell.y), 0);
+  vec4 list = texelFetch(cell_tex, cell, 0);
+  int first = int(list.x + 0.5);
+  int count = int(list.y + 0.5);
   float best_score = -1e30;
   vec3 best_w = vec3(1.0, 0.0, 0.0);
   ivec3 best_views = ivec3(0);
-  for (int k = 0; k < 8; k++) {
-    int t = int(lists[k / 4][k % 4]);
-    if (t < 0) {
-      break;
-    }
+  for (int k = 0; k < count; k++) {
+    int entry = first + k;
+    int t = int(texelFetch(candidate_tex, ivec2(entry % SM_BTF_LIST_WIDTH,
+                                                entry / SM_BTF_LIST_WIDTH), 0).x + 0.5);
     vec4 r0 = texelFetch(triangle_tex, ivec2(0, t), 0);
     vec4 r1 = texelFetch(triangle_tex, ivec2(1, t), 0);
     vec4 r2 = texelFetch(triangle_tex, ivec2(2, t), 0);

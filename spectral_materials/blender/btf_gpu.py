@@ -3,7 +3,7 @@
 A material with a stored BTF (``btf_storage``) is drawn by ``glsl/btf_frag.glsl``
 through :class:`BTFMaterial`: the records as an RGBA32F 2D-array texture (tiled within
 the GPU's layer and size limits, :class:`~spectral_materials.core.btf_render.TileLayout`),
-the view-lookup tables (cells and triangles of
+the view-lookup tables (cells, candidate lists and triangles of
 :class:`~spectral_materials.core.btf.HemisphereTriangulation`) and a light texture with
 the lights' XYZ weights on the material's albedo basis. Textures are rebuilt only when
 the stored BTF changes (its image's name and size and the metadata are the key); the
@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.btf import HemisphereTriangulation
 from ..core.btf_render import DrawableBTF, TileLayout
 from ..core.lights import LIGHT_CODES, SpectralLight
 from . import btf_storage, shaders
@@ -49,6 +50,7 @@ class BTFShaderKey:
         return {"SM_BTF_KIND": str(KIND_CODES[self.kind]), "SM_BTF_LOBES": str(self.lobes),
                 "SM_BTF_COEFFS": str(self.coefficients),
                 "SM_BTF_ALBEDO_RECORDS": str(-(-self.coefficients // 4)),
+                "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
                 "SM_LIGHTS": str(self.lights), "SM_LIGHT_TYPES": str(types),
                 "SM_OUTPUT": str(OUTPUTS[self.output])}
 
@@ -75,6 +77,7 @@ def create_info(key: BTFShaderKey):
     info.sampler(1, "FLOAT_2D", "cell_tex")
     info.sampler(2, "FLOAT_2D", "triangle_tex")
     info.sampler(3, "FLOAT_2D", "light_tex")
+    info.sampler(4, "FLOAT_2D", "candidate_tex")
     info.push_constant("MAT4", "model_matrix")
     info.push_constant("MAT4", "normal_matrix")
     info.vertex_in(0, "VEC3", "position")
@@ -131,9 +134,11 @@ class BTFMaterial:
         tri = drawable.triangulation
         self.cell_texture = float_texture(tri.cell_table())
         self.triangle_texture = float_texture(tri.triangle_table())
+        self.candidate_texture = float_texture(tri.candidate_table())
         self.grid = tri.grid
         self.nbytes = int(self.layout.layers * self.layout.size[0] * self.layout.size[1] * 16
-                          + tri.cell_table().nbytes + tri.triangle_table().nbytes)
+                          + tri.cell_table().nbytes + tri.triangle_table().nbytes
+                          + tri.candidate_table().nbytes)
         self._light_texture: tuple | None = None
 
     def key(self, lights: list[SpectralLight], output: str = "XYZ") -> BTFShaderKey:
@@ -174,6 +179,7 @@ class BTFMaterial:
         shader.uniform_sampler("cell_tex", self.cell_texture)
         shader.uniform_sampler("triangle_tex", self.triangle_texture)
         shader.uniform_sampler("light_tex", light_texture)
+        shader.uniform_sampler("candidate_tex", self.candidate_texture)
 
 
 def _material_key(material) -> tuple:

@@ -250,24 +250,27 @@ class HemisphereTriangulation:
     where the ray d meets the triangle's plane (the spherical triangle's gnomonic
     barycentrics), so a measured direction gets weight 1 exactly.
 
-    Finding the triangle: the disc is cut into ``grid × grid`` cells, each listing up to
-    :data:`CANDIDATES` triangles whose planar image overlaps it (a point's own triangle
-    is always among its cell's; 8, so that a cell holding a sample shared by 8 triangles
-    still lists them all). The first candidate whose weights are all ≥ −``eps``
-    is taken; outside the samples' hull (for instance a view beyond the last ring), the
-    candidate with the largest smallest weight is taken and its negative weights are
-    clamped to 0 and renormalised. The GLSL mirror (``glsl/btf_views.glsl``) does exactly
-    this with the tables :meth:`cell_table` and :meth:`triangle_table`.
+    Finding the triangle: the disc is cut into ``grid × grid`` cells, each listing the
+    triangles whose planar image overlaps it (a point's own triangle is always among its
+    cell's; the one holding the cell's centre first). The first candidate whose weights
+    are all ≥ −``EPS`` is taken; outside the samples' hull (for instance a view beyond
+    the last ring), the candidate with the largest smallest weight is taken and its
+    negative weights are clamped to 0 and renormalised. The GLSL mirror
+    (``glsl/btf_views.glsl``) does exactly this with the tables :meth:`cell_table` and
+    :meth:`triangle_table`.
     """
 
     directions: np.ndarray
     grid: int = 32
     triangles: np.ndarray = field(init=False)        # (T, 3) int
     inverses: np.ndarray = field(init=False)         # (T, 3, 3)
-    cells: np.ndarray = field(init=False)            # (grid, grid, CANDIDATES) int, -1 empty
+    cell_start: np.ndarray = field(init=False)       # (grid, grid) int: into candidates
+    cell_count: np.ndarray = field(init=False)       # (grid, grid) int
+    candidates: np.ndarray = field(init=False)       # (K,) int triangle indices
 
-    CANDIDATES = 8
     EPS = 1e-6
+    #: Candidate-list texture width (glsl/btf_views.glsl reads entry i at (i % W, i / W)).
+    LIST_WIDTH = 1024
 
     def __post_init__(self) -> None:
         from scipy.spatial import Delaunay
@@ -288,47 +291,38 @@ class HemisphereTriangulation:
         keep = np.abs(det) > 1e-12                          # drop slivers on great circles
         self.triangles = triangles[keep]
         self.inverses = np.linalg.inv(m[keep])
-        self.cells = self._cell_candidates(plane)
+        self._cell_candidates(plane)
 
-    def _cell_candidates(self, plane: np.ndarray) -> np.ndarray:
+    def _cell_candidates(self, plane: np.ndarray) -> None:
         g = self.grid
-        cells = -np.ones((g, g, self.CANDIDATES), dtype=np.int64)
-        counts = np.zeros((g, g), dtype=np.int64)
         corners = plane[self.triangles]                      # (T, 3, 2)
         lo = np.clip(np.floor((corners.min(axis=1) + 1.0) * 0.5 * g).astype(int), 0, g - 1)
         hi = np.clip(np.floor((corners.max(axis=1) + 1.0) * 0.5 * g).astype(int), 0, g - 1)
-        # Rank triangles per cell by overlap with the cell centre region: a triangle that
-        # contains the cell centre first, so that the common case needs one test.
         centres = (np.arange(g) + 0.5) / g * 2.0 - 1.0
-        order = []
+        lists: dict[tuple[int, int], list] = {}
         for t in range(len(self.triangles)):
             for iy in range(lo[t, 1], hi[t, 1] + 1):
                 for ix in range(lo[t, 0], hi[t, 0] + 1):
                     if _triangle_meets_cell(corners[t], centres[ix], centres[iy], 1.0 / g):
                         inside = _planar_inside(corners[t], centres[ix], centres[iy])
-                        order.append((iy, ix, 0 if inside else 1, t))
-        order.sort()
-        overflow = 0
-        for iy, ix, _, t in order:
-            if counts[iy, ix] < self.CANDIDATES:
-                cells[iy, ix, counts[iy, ix]] = t
-                counts[iy, ix] += 1
-            else:
-                overflow += 1
-        if overflow:
-            raise InvalidBTF(f"direction set too dense for a {g} × {g} lookup grid "
-                             f"({overflow} triangle–cell overlaps beyond {self.CANDIDATES} "
-                             "per cell); use a finer grid")
+                        lists.setdefault((iy, ix), []).append((0 if inside else 1, t))
         # Cells outside the hull (near the horizon): the nearest triangles by centroid.
-        empty = counts == 0
-        if np.any(empty):
-            centroid = corners.mean(axis=1)
-            iy, ix = np.nonzero(empty)
-            p = np.stack([centres[ix], centres[iy]], axis=-1)
-            dist = np.linalg.norm(p[:, None, :] - centroid[None], axis=-1)
-            nearest = np.argsort(dist, axis=1)[:, : self.CANDIDATES]
-            cells[iy, ix, : nearest.shape[1]] = nearest
-        return cells
+        centroid = corners.mean(axis=1)
+        for iy in range(g):
+            for ix in range(g):
+                if (iy, ix) not in lists:
+                    dist = np.linalg.norm(centroid - [centres[ix], centres[iy]], axis=1)
+                    lists[(iy, ix)] = [(0, int(t)) for t in np.argsort(dist)[:4]]
+        self.cell_start = np.zeros((g, g), np.int64)
+        self.cell_count = np.zeros((g, g), np.int64)
+        flat = []
+        for iy in range(g):
+            for ix in range(g):
+                entries = [t for _, t in sorted(lists[(iy, ix)])]
+                self.cell_start[iy, ix] = len(flat)
+                self.cell_count[iy, ix] = len(entries)
+                flat += entries
+        self.candidates = np.asarray(flat, np.int64)
 
     def cell_of(self, directions: np.ndarray) -> np.ndarray:
         """(N, 2) integer (ix, iy) lookup cells of directions."""
@@ -346,15 +340,15 @@ class HemisphereTriangulation:
         norm = np.linalg.norm(d, axis=1, keepdims=True)
         d = np.where(norm > 1e-12, d / np.maximum(norm, 1e-300), [0.0, 0.0, 1.0])
         cell = self.cell_of(d)
-        candidates = self.cells[cell[:, 1], cell[:, 0]]            # (N, K)
+        start = self.cell_start[cell[:, 1], cell[:, 0]]
+        count = self.cell_count[cell[:, 1], cell[:, 0]]
         best_w = np.zeros((len(d), 3))
         best_t = np.zeros(len(d), dtype=np.int64)
         best_score = np.full(len(d), -np.inf)
         done = np.zeros(len(d), dtype=bool)
-        for k in range(self.CANDIDATES):
-            t = candidates[:, k]
-            valid = (t >= 0) & ~done
-            tk = np.maximum(t, 0)
+        for k in range(int(count.max(initial=0))):
+            valid = (k < count) & ~done
+            tk = self.candidates[np.where(valid, start + k, 0)]
             w = np.einsum("nij,nj->ni", self.inverses[tk], d)
             s = w.sum(axis=1, keepdims=True)
             w = w / np.where(np.abs(s) > 1e-300, s, 1.0)
@@ -369,10 +363,20 @@ class HemisphereTriangulation:
 
     # ------------------------------------------------------------ GPU tables
     def cell_table(self) -> np.ndarray:
-        """(grid, 2 · grid, 4) float32: the candidate triangle indices of cell (ix, iy) in
-        texels (2·ix, iy) and (2·ix + 1, iy), −1 where empty."""
-        g = self.grid
-        return self.cells.reshape(g, g, 2, 4).reshape(g, 2 * g, 4).astype(np.float32)
+        """(grid, grid, 4) float32: (first entry in the candidate list, entry count, 0, 0)
+        of each cell (exact as float below 2²⁴)."""
+        out = np.zeros((self.grid, self.grid, 4), np.float32)
+        out[..., 0] = self.cell_start
+        out[..., 1] = self.cell_count
+        return out
+
+    def candidate_table(self) -> np.ndarray:
+        """(rows, LIST_WIDTH, 4) float32: candidate triangle indices in x, entry i at texel
+        (i % LIST_WIDTH, i // LIST_WIDTH)."""
+        n = len(self.candidates)
+        out = np.zeros((-(-n // self.LIST_WIDTH) * self.LIST_WIDTH, 4), np.float32)
+        out[:n, 0] = self.candidates
+        return out.reshape(-1, self.LIST_WIDTH, 4)
 
     def triangle_table(self) -> np.ndarray:
         """(T, 3, 4) float32: row r of M⁻¹ in xyz and the triangle's r-th sample in w."""
@@ -414,7 +418,8 @@ def resample(btf: BTF, *, views: np.ndarray | None = None, lights: np.ndarray | 
              grid: int = 32) -> BTF:
     """``btf`` on new view and/or light directions, barycentric over the hemisphere
     (:class:`HemisphereTriangulation`) in each. Samples of a missing (view, light) image
-    are left out of the interpolation (the other weights renormalised); an output image
+    are left out of the interpolation (the other weights renormalised; where all weighted
+    samples are missing, the triangle's present samples are averaged); an output image
     with no data to draw on stays NaN."""
     out = btf
     for axis, target in ((0, views), (1, lights)):
@@ -432,6 +437,14 @@ def resample(btf: BTF, *, views: np.ndarray | None = None, lights: np.ndarray | 
             w = weight[:, k][:, None] * present[index[:, k]]             # (N, other)
             result += (w[:, :, None, None, None] * filled[index[:, k]]).astype(np.float32)
             mass += w
+        # Where the interpolating samples with weight are all missing (a missing sample
+        # at the target itself), the triangle's present samples share equally.
+        fallback = mass <= 1e-12
+        if np.any(fallback):
+            for k in range(3):
+                w = fallback * present[index[:, k]]
+                result += (w[:, :, None, None, None] * filled[index[:, k]]).astype(np.float32)
+                mass += w
         ok = mass > 1e-12
         result /= np.where(ok, mass, 1.0)[:, :, None, None, None].astype(np.float32)
         result[~ok] = np.nan
