@@ -9,8 +9,9 @@ section (``demo_gpu.py``): the scene drawn offscreen by the spectral shaders nex
 its 5 nm reference and ΔE94 map, the protocol sphere per material through the GPU,
 and the frame time against an RGB baseline; the EEVEE section (``demo_eevee.py``); the
 spectral PRT section (``demo_prt.py``: the ColorChecker under FL4 against RGB PRT and a
-5 nm reference, the Metacow). Everything is measured in this run; the
-report says how.
+5 nm reference, the Metacow); the BTF section (``demo_btf.py``: a corduroy cushion drawn
+from per-view reflectance fields, and the BTF paper's error table). Everything is
+measured in this run; the report says how.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "scripts"))
 
 import bpy  # noqa: E402
+import demo_btf  # noqa: E402
 import demo_eevee  # noqa: E402  (scripts/, next to this file)
 import demo_gpu  # noqa: E402
 import demo_prt  # noqa: E402
@@ -297,16 +299,18 @@ def main() -> int:
     eevee_section = demo_eevee.eevee_section(scene, comparison, out / "images")
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))        # with the EEVEE node groups
     prt_section = demo_prt.prt_section(out / "images")      # its own scenes, saved apart
+    btf_section = demo_btf.btf_section(out / "images")      # its own scene too
     total = time.perf_counter() - start
     write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells,
                  demo_gpu.report_lines(gpu_scene, spheres, frame)
                  + demo_eevee.report_lines(eevee_section)
                  + demo_eevee.sphere_lines(eevee_spheres)
-                 + demo_prt.report_lines(prt_section))
+                 + demo_prt.report_lines(prt_section)
+                 + demo_btf.report_lines(btf_section))
     (out / "report.json").write_text(json.dumps(
         {"analysis": analysis, "figures": figures, "reload_bit_identical": reload,
          "gpu_scene": gpu_scene, "frame": frame, "eevee": eevee_section,
-         "prt": prt_section,
+         "prt": prt_section, "btf": btf_section,
          "eevee_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
                            for k, v in eevee_spheres.items()],
          "gpu_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}

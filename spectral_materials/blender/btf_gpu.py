@@ -198,6 +198,7 @@ def btf_material(material) -> BTFMaterial | None:
     key = _material_key(material)
     cached = _MATERIALS.get(material.name)
     if cached is not None and getattr(cached, "cache_key", None) == key:
+        cached.uv_scale = btf_storage.uv_scale(material)      # a live setting
         return cached
     try:
         resource = BTFMaterial(btf_storage.load_btf(material), btf_storage.uv_scale(material))

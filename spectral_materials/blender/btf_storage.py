@@ -4,8 +4,9 @@ Image ``SM BTF <material>`` (RGBA float32, full float, packed, fake user): the
 :meth:`DrawableBTF.record_images` records (albedo records, then each view's records),
 each an H × W tile, laid out left to right, bottom to top in ``columns`` tile columns.
 The material's ID property ``sm_btf`` holds everything else: kind, lobes, the view
-directions, the albedo basis, the texel size, the UV repeats and the fit figures
-(JSON). Images are packed as lossless EXR, so a stored BTF loads back bit-identical.
+directions, the albedo basis, the texel size and the fit figures (JSON). How often
+the tile repeats is a live setting, ``material.spectral_btf.uv_scale``. Images are
+packed as lossless EXR, so a stored BTF loads back bit-identical.
 """
 
 from __future__ import annotations
@@ -44,9 +45,10 @@ def pack_records(drawable: DrawableBTF) -> tuple[np.ndarray, int]:
     return pixels, columns
 
 
-def store_btf(material, drawable: DrawableBTF, *, uv_scale=(1.0, 1.0),
+def store_btf(material, drawable: DrawableBTF, *, uv_scale=None,
               figures: dict | None = None) -> None:
-    """Store ``drawable`` on ``material`` (replacing a previous BTF)."""
+    """Store ``drawable`` on ``material`` (replacing a previous BTF); ``uv_scale`` sets the
+    material's tile repeats when given."""
     pixels, columns = pack_records(drawable)
     image = new_float_image(f"{IMAGE_PREFIX}{material.name}", pixels)
     try:
@@ -56,7 +58,6 @@ def store_btf(material, drawable: DrawableBTF, *, uv_scale=(1.0, 1.0),
             "basis": drawable.basis.astype(np.float64).ravel().tolist(),
             "coefficients": int(drawable.coefficients.shape[2]),
             "texels": list(drawable.texels), "columns": columns,
-            "uv_scale": [float(uv_scale[0]), float(uv_scale[1])],
             "figures": json.dumps(figures or {}), "image": image.name,
             "token": uuid.uuid4().hex,
         }
@@ -65,6 +66,8 @@ def store_btf(material, drawable: DrawableBTF, *, uv_scale=(1.0, 1.0),
         raise
     clear_btf(material)
     material[PROPERTY] = meta
+    if uv_scale is not None:
+        material.spectral_btf.uv_scale = (float(uv_scale[0]), float(uv_scale[1]))
 
 
 def _meta(material) -> dict:
@@ -74,7 +77,8 @@ def _meta(material) -> dict:
 
 
 def uv_scale(material) -> tuple[float, float]:
-    return tuple(float(s) for s in _meta(material)["uv_scale"])  # type: ignore[return-value]
+    """How often the BTF tile repeats across the UV square (u, v)."""
+    return tuple(float(s) for s in material.spectral_btf.uv_scale)  # type: ignore[return-value]
 
 
 def figures(material) -> dict:

@@ -14,8 +14,9 @@ import threading
 import bpy
 from bpy.props import BoolProperty, EnumProperty
 
+from ..core import btf_job
 from ..core.errors import Cancelled
-from . import eevee, jobs, prt, scene, storage
+from . import btf, btf_storage, eevee, jobs, prt, scene, storage
 
 # SourceError, SceneError and StorageError are ValueErrors: bad input, said plainly.
 _EXPECTED = (ValueError, OSError)
@@ -353,6 +354,77 @@ class SPECTRAL_OT_clear_prt(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class SPECTRAL_OT_fit_btf(_ModalJob, bpy.types.Operator):
+    """Fit the active material's BTF (generated or from a UBO file) as per-view reflectance
+    fields and store it for the spectral viewport; Esc cancels and changes nothing"""
+
+    bl_idname = "spectral.fit_btf"
+    bl_label = "Fit BTF"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if _active_material(context) is None:
+            cls.poll_message_set("Select an object with a material")
+            return False
+        return True
+
+    def _commit(self, context, result) -> set[str]:
+        try:
+            btf.commit_fit(self._material, result)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        from . import draw
+
+        draw.redraw_viewports()
+        self.report({"INFO"}, btf.status(bpy.data.materials[self._material]))
+        return {"FINISHED"}
+
+    def execute(self, context):
+        try:
+            job = btf.plan_fit(_active_material(context))
+            self._material = job.name
+            result = btf_job.run_btf_job(job)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        return self._commit(context, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        if context.window_manager.spectral_job.running:
+            self.report({"WARNING"}, "A spectral job is already running")
+            return {"CANCELLED"}
+        try:
+            job = btf.plan_fit(_active_material(context))
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        self._material = job.name
+        return self._start(context, lambda cb: btf_job.run_btf_job(job, cb))
+
+    def _finish(self, context, result) -> set[str]:
+        return self._commit(context, result)
+
+
+class SPECTRAL_OT_clear_btf(bpy.types.Operator):
+    """Remove the active material's stored BTF"""
+
+    bl_idname = "spectral.clear_btf"
+    bl_label = "Clear BTF"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return btf_storage.has_btf(_active_material(context))
+
+    def execute(self, context):
+        btf_storage.clear_btf(_active_material(context))
+        from . import draw
+
+        draw.redraw_viewports()
+        return {"FINISHED"}
+
+
 CLASSES = (
     SPECTRAL_OT_factor_material,
     SPECTRAL_OT_factor_scene,
@@ -362,4 +434,6 @@ CLASSES = (
     SPECTRAL_OT_eevee_remove,
     SPECTRAL_OT_bake_prt,
     SPECTRAL_OT_clear_prt,
+    SPECTRAL_OT_fit_btf,
+    SPECTRAL_OT_clear_btf,
 )

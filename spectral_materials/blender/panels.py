@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import bpy
 
+from . import btf, eevee, jobs, plots, prt, sources
 from . import draw as spectral_draw
-from . import eevee, jobs, plots, prt, sources
 from .properties import MODEL_KEYS
 
 
@@ -332,6 +332,42 @@ class SPECTRAL_PT_prt_object(bpy.types.Panel):
             layout.label(text=reason, icon="ERROR")
 
 
+class SPECTRAL_PT_btf(bpy.types.Panel):
+    """The active material's BTF: source, reflectance-field model, fit, figures."""
+
+    bl_label = "Spectral BTF"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.material is not None
+
+    def draw(self, context):
+        layout = self.layout
+        material = context.material
+        s = material.spectral_btf
+        layout.use_property_split = True
+        layout.prop(s, "source")
+        if s.source.startswith("UBO"):
+            layout.prop(s, "filepath")
+        layout.prop(s, "texels")
+        layout.prop(s, "model")
+        if s.model == "RFNL":
+            layout.prop(s, "lobes")
+        layout.prop(s, "uv_scale")
+        if not _draw_job(layout, context):
+            row = layout.row(align=True)
+            row.operator("spectral.fit_btf", icon="TEXTURE")
+            row.operator("spectral.clear_btf", icon="TRASH")
+        layout.label(text=btf.status(material), icon="INFO")
+        reason = spectral_draw.btf_gpu.FAILED.get(material.name)
+        if reason:
+            layout.label(text=reason, icon="ERROR")
+
+
 CLASSES = (
     SPECTRAL_PT_material,
     SPECTRAL_PT_material_settings,
@@ -341,4 +377,5 @@ CLASSES = (
     SPECTRAL_PT_scene_analysis,
     SPECTRAL_PT_environment,
     SPECTRAL_PT_prt_object,
+    SPECTRAL_PT_btf,
 )

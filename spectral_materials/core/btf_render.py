@@ -250,6 +250,12 @@ class DrawableBTF:
             out += weight[:, k] * self.luminance(index[:, k], row, col, lights)
         return out
 
+    def views_used(self, local_views: np.ndarray) -> np.ndarray:
+        """Sorted indices of the measured views that get weight for these local view
+        directions (N, 3): the records a scene seen only from there needs."""
+        index, weight = self.triangulation.weights(np.asarray(local_views).reshape(-1, 3))
+        return np.unique(index[weight > 0])
+
     def light_texels(self, lights: list[SpectralLight]) -> np.ndarray:
         """The light texture (lights, LIGHT_HEADER + m, 4): ``glsl/lights.glsl``'s header,
         then the light's XYZ weights Ĩ_j on the albedo basis."""

@@ -153,3 +153,46 @@ def test_a_damaged_image_is_a_clear_error(clean_scene):
         btf_storage.load_btf(material)
     assert btf_gpu.btf_material(material) is None
     assert "fit the BTF again" in btf_gpu.FAILED[material.name]
+
+
+def _material_on_plane(name="Corduroy"):
+    bpy.data.objects.remove(bpy.data.objects["Cube"])
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    obj = bpy.context.active_object
+    material = bpy.data.materials.new(name)
+    obj.data.materials.append(material)
+    return obj, material
+
+
+def test_fit_operator_stores_a_drawable_btf_and_survives_reload(clean_scene, tmp_path):
+    obj, material = _material_on_plane()
+    s = material.spectral_btf
+    s.source, s.texels, s.model = "CORDUROY", 4, "RFP"
+    assert bpy.ops.spectral.fit_btf() == {"FINISHED"}
+    figures = btf_storage.figures(material)
+    assert figures["model"] == "RFP" and figures["views"] == 81
+    assert 0 < figures["epsilon_avg"] < 0.2 and figures["gpu_bytes"] > 0
+    xyz, stats = draw.render_camera(clean_scene, width=48, height=36)
+    assert material.name in stats.materials and np.isfinite(xyz).all()
+    assert xyz[..., 1].max() > 0
+    before = btf_storage.load_btf(material)
+    path = str(tmp_path / "btf.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    after = btf_storage.load_btf(bpy.data.materials["Corduroy"])
+    assert np.array_equal(before.params, after.params)
+    assert np.array_equal(before.coefficients, after.coefficients)
+
+
+def test_fit_with_a_missing_file_changes_nothing(clean_scene, tmp_path):
+    obj, material = _material_on_plane("Fabric")
+    btf_storage.store_btf(material, synthetic_drawable("RFP"))
+    token = material[btf_storage.PROPERTY]["token"]
+    s = material.spectral_btf
+    s.source, s.filepath = "UBO2003", str(tmp_path / "missing.zip")
+    with pytest.raises(RuntimeError, match="no such file"):
+        bpy.ops.spectral.fit_btf()
+    assert material[btf_storage.PROPERTY]["token"] == token
+    s.filepath = ""
+    with pytest.raises(RuntimeError, match="choose the UBO2003 file"):
+        bpy.ops.spectral.fit_btf()

@@ -235,3 +235,13 @@ def test_drawable_refuses_bad_parameters():
     with pytest.raises(ValueError, match="1..3 lobes"):
         btf_render.DrawableBTF("RFNL", 4, views, np.zeros((81, 1, 1, 20)), np.ones((1, 1, 1)),
                                basis)
+
+
+def test_views_used_are_those_with_weight():
+    d = _drawable("RFP", [0, 0, 0, 0, 0, 1, 0, 0])
+    assert d.views_used(np.array([[0.0, 0.0, 1.0]])).tolist() == [0]
+    oblique = np.array([np.sin(0.5), 0.0, np.cos(0.5)])
+    used = d.views_used(oblique[None])
+    assert 1 <= len(used) <= 3
+    everything = d.views_used(_random_hemisphere(20000, seed=1))
+    assert len(everything) == 81
