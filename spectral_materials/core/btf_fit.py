@@ -340,7 +340,7 @@ class CPModel(BTFModel):
     factors: list[np.ndarray]
     packs: int
     filled_images: int = 0
-    _tri: dict = field(default_factory=dict, repr=False)
+    _tri: dict = field(default_factory=dict, repr=False, compare=False, init=False)
 
     @property
     def params(self) -> list[np.ndarray]:
@@ -468,7 +468,8 @@ def lobes_from_paper(rho_s, t, n) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     norm = np.linalg.norm(t, axis=-1)
     valid = (norm > 0.0) & (rho_s > 0.0)
     log_a = n * np.log(np.where(valid, norm, 1.0)) + np.log(np.where(valid, rho_s, 1.0))
-    a = np.where(valid, np.exp(np.minimum(log_a, np.log(A_MAX))), 0.0)
+    # exp(log A_MAX) rounds above A_MAX: clamp after the exponential too.
+    a = np.where(valid, np.minimum(np.exp(np.minimum(log_a, np.log(A_MAX))), A_MAX), 0.0)
     return a, btf_lm.normalise(t), np.clip(n, N_MIN, N_MAX)
 
 
@@ -504,10 +505,12 @@ def _rfnl_init(lights: np.ndarray, y: np.ndarray, lobes: int, separation_deg: fl
     are tried: lobe 1 at the brightest light instead, and each of the two with its last
     lobe on the normal (0, 0, 1).
 
-    Widths — for each axis set, each lobe's exponent is chosen from
-    :data:`RFNL_EXPONENT_GRID` by one coordinate-descent pass (or fixed at
-    ``initial_exponent``), every candidate scored after solving (ρd, a_j) by linear least
-    squares (amplitudes clipped at 0). The cheapest candidate per texel is returned.
+    Candidates — the paper-style start (:func:`_rfnl_paper_start`: peak heights, peak
+    widths, ρd at a low percentile) on the high-pass axes; and for each axis set, each
+    lobe's exponent chosen from :data:`RFNL_EXPONENT_GRID` by one coordinate-descent pass
+    (or fixed at ``initial_exponent``), every candidate scored after solving (ρd, a_j) by
+    linear least squares (amplitudes clipped at 0). The cheapest candidate per texel (by
+    its cost before LM) is returned.
 
     Why not the paper's start alone: on synthetic diffuse + specular texels LM from the
     high-pass axes alone stops in local minima ~100× costlier than from the best of these
@@ -520,29 +523,33 @@ def _rfnl_init(lights: np.ndarray, y: np.ndarray, lobes: int, separation_deg: fl
     cos_light = np.clip(lights @ lights.T, -1.0, 1.0)
     cos_sep = np.cos(np.radians(separation_deg))
     scale = np.maximum(np.abs(y).max(axis=0), 1e-12)
+    best_state = best_cost = None
 
-    def peak_axes(first_raw: bool) -> np.ndarray:
+    def peak_axes(first_raw: bool) -> tuple[np.ndarray, np.ndarray]:
         blocked = np.zeros((p_count, n), dtype=bool)
         axes = np.zeros((n, k, 3))
+        peaks = np.zeros((n, k), dtype=np.int64)
         for j in range(k):
             source = y if (j == 0 and first_raw) else high
             score = np.where(blocked, -np.inf, source)
             score = np.where(blocked.all(axis=0)[None], source, score)  # too few lights
-            idx = np.argmax(score, axis=0)
-            axes[:, j] = lights[idx]
-            blocked |= cos_light[idx].T > cos_sep
-        return axes
+            peaks[:, j] = np.argmax(score, axis=0)
+            axes[:, j] = lights[peaks[:, j]]
+            blocked |= cos_light[peaks[:, j]].T > cos_sep
+        return axes, peaks
 
     axis_sets = []
     for first_raw in (False, True):
-        axes = peak_axes(first_raw)
+        axes, peaks = peak_axes(first_raw)
+        if not first_raw:
+            best_state, best_cost = _rfnl_paper_start(y, lights, cos_light, peaks, cos_sep,
+                                                      initial_exponent)
         axis_sets.append(axes)
         normal = axes.copy()
         normal[:, -1] = (0.0, 0.0, 1.0)
         axis_sets.append(normal)
     grid = RFNL_EXPONENT_GRID if initial_exponent is None else ()
     start_n = 8.0 if initial_exponent is None else float(np.clip(initial_exponent, N_MIN, N_MAX))
-    best_state, best_cost = None, None
     for axes in axis_sets:
         shapes_of = np.einsum("nkc,pc->npk", axes, lights)                # (n, P, k)
         expo = np.full((n, k), start_n)
@@ -561,13 +568,40 @@ def _rfnl_init(lights: np.ndarray, y: np.ndarray, lobes: int, separation_deg: fl
         # A lobe the linear fit did not want starts small but alive (LM may revive it).
         amp = np.clip(np.where(amp > 0, amp, 1e-3 * scale[:, None]), A_MIN, A_MAX)
         state = btf_lm.rfnl_join(rho, np.log(amp), axes, np.log(expo))
-        if best_state is None:
-            best_state, best_cost = state, cost
-        else:
-            better = cost < best_cost
-            best_state = np.where(better[:, None], state, best_state)
-            best_cost = np.minimum(cost, best_cost)
+        better = cost < best_cost
+        best_state = np.where(better[:, None], state, best_state)
+        best_cost = np.minimum(cost, best_cost)
     return best_state
+
+
+def _rfnl_paper_start(y, lights, cos_light, peaks, cos_sep, initial_exponent):
+    """The paper-style start for the high-pass axes ``lights[peaks]`` and its cost:
+    ρd = 10th percentile of the data; lobe by lobe, a = the peak's height above ρd and the
+    earlier lobes, n from the peak's width (least squares of ``log(y/peak) = n log cos δ``
+    over the lights within the separation angle; 8 where that is undetermined)."""
+    n, k = peaks.shape
+    col = np.arange(n)
+    scale = np.maximum(np.abs(y).max(axis=0), 1e-12)
+    rho0 = np.clip(np.percentile(y, 10.0, axis=0), 0.0, A_MAX)
+    remaining = y - rho0
+    amp, expo = np.zeros((n, k)), np.zeros((n, k))
+    for j in range(k):
+        c = cos_light[peaks[:, j]].T                                  # (P, n)
+        peak = remaining[peaks[:, j], col]
+        if initial_exponent is None:
+            near = (c > cos_sep) & (c < 1.0 - 1e-9)
+            ratio = np.clip(remaining / np.where(peak > 0, peak, 1.0)[None], 1e-6, 1.0)
+            log_c = np.log(np.where(near, c, 1.0))
+            den = np.sum(log_c * log_c, axis=0)
+            width = np.sum(np.where(near, np.log(ratio) * log_c, 0.0), axis=0) / \
+                np.where(den > 0, den, 1.0)
+            expo[:, j] = np.clip(np.where((den > 0) & (peak > 0), width, 8.0), 1.0, 1000.0)
+        else:
+            expo[:, j] = np.clip(initial_exponent, N_MIN, N_MAX)
+        amp[:, j] = np.clip(np.where(peak > 0, peak, 1e-3 * scale), A_MIN, A_MAX)
+        remaining = remaining - amp[:, j] * _lobe_shape(c, expo[:, j])
+    cost = 0.5 * np.sum(remaining * remaining, axis=0)
+    return btf_lm.rfnl_join(rho0, np.log(amp), lights[peaks], np.log(expo)), cost
 
 
 def _rfnl_linear(y: np.ndarray, cosines: np.ndarray, expo: np.ndarray):
@@ -601,8 +635,14 @@ def _solve_batched(states, lights, data, mask, lobes, *, iterations, ftol):
 
 
 def _solve_scipy(states, lights, data, mask, lobes, *, iterations, ftol):
-    start = btf_lm.rfnl_cost(btf_lm.rfnl_project(states, lobes), lights, data, mask, lobes)
+    states = btf_lm.rfnl_project(states, lobes)
+    start = btf_lm.rfnl_cost(states, lights, data, mask, lobes)
     x, cost = btf_lm.rfnl_scipy(states, lights, data, mask, lobes, ftol=ftol, xtol=ftol)
+    # MINPACK ignores the bounds; where clamping its answer made it worse than the start,
+    # keep the start (as LM never accepts a step that raises the cost).
+    worse = ~(cost <= start)
+    x = np.where(worse[:, None], states, x)
+    cost = np.where(worse, start, cost)
     return x, cost, np.array([start.sum(), cost.sum()])
 
 
@@ -736,7 +776,7 @@ def _rfnl_pack(x: np.ndarray, lobes: int, header: int) -> np.ndarray:
     amplitude floor is stored as a = 0, axis +z, n = 1)."""
     rho_d, log_a, axes, log_n = btf_lm.rfnl_split(x, lobes)
     absent = log_a <= LOG_A_MIN + 1e-6
-    a = np.where(absent, 0.0, np.exp(np.minimum(log_a, np.log(A_MAX))))
+    a = np.where(absent, 0.0, np.minimum(np.exp(np.minimum(log_a, np.log(A_MAX))), A_MAX))
     n = np.where(absent, 1.0, np.clip(np.exp(log_n), N_MIN, N_MAX))
     axes = np.where(absent[..., None], [0.0, 0.0, 1.0], axes)
     order = np.argsort(-a, axis=1, kind="stable")
