@@ -16,21 +16,16 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+from bench_btf import fit_all  # scripts/, beside this file
+from demo_prt import _png  # the demo's display PNG writer
 
 from spectral_materials.blender import btf as blender_btf
 from spectral_materials.blender import btf_storage, draw
 from spectral_materials.core import btf_fit, btf_generate, spectra
-from spectral_materials.core.shading import shading_frame
+from spectral_materials.core.shading import shading_frame, to_local
 
 SIZE = (240, 160)
 TEXELS = 16
-
-
-def _png(display_bottom_up: np.ndarray, path: Path) -> None:
-    import imageio.v2 as imageio
-
-    rgb = np.nan_to_num(display_bottom_up[::-1, :, :3], nan=1.0)
-    imageio.imwrite(path, (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8))
 
 
 def build_scene():
@@ -81,9 +76,7 @@ def views_used(scene, material) -> dict:
                                bpy.context.evaluated_depsgraph_get())
     points = gbuffer["POSITION"][covered, :3].astype(np.float64)
     t, b, n = shading_frame(gbuffer["NORMAL"][covered, :3], gbuffer["TANGENT"][covered, :3])
-    toward = view.directions(points)
-    local = np.stack([np.einsum("ij,ij->i", t, toward), np.einsum("ij,ij->i", b, toward),
-                      np.einsum("ij,ij->i", n, toward)], axis=-1)
+    local = to_local((t, b, n), view.directions(points))
     drawable = btf_storage.load_btf(material)
     used = drawable.views_used(local)
     h, w = drawable.texels
@@ -95,14 +88,11 @@ def views_used(scene, material) -> dict:
 
 
 def comparison_table(texels: int) -> list[dict]:
-    """The BTF paper's Table 1 on this corduroy: LAF, RFP, RFNL, CP."""
+    """The BTF paper's Table 1 on this corduroy: LAF, RFP, RFNL, CP, fitted as
+    ``bench_btf.py`` fits them."""
     data = btf_generate.generate_btf("corduroy", texels=texels)
     rows = []
-    for name, fit in (("LAF", lambda: btf_fit.fit_lafortune(data, lobes=4)),
-                      ("RFP", lambda: btf_fit.fit_rfp(data)),
-                      ("RFNL", lambda: btf_fit.fit_rfnl(data, lobes=2)),
-                      ("CP", lambda: btf_fit.fit_cp(data, packs=8))):
-        model = fit()
+    for name, model in fit_all(data, cp_packs=8).items():
         eps = btf_fit.epsilon(data, model)
         rows.append({"method": name, "avg": eps["avg"], "min": eps["min"], "max": eps["max"],
                      "fit_seconds": model.fit_seconds, "gpu_bytes": int(model.nbytes_gpu)})

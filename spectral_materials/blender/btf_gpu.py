@@ -18,11 +18,17 @@ import numpy as np
 
 from ..core.btf import HemisphereTriangulation
 from ..core.btf_render import DrawableBTF, TileLayout
-from ..core.lights import LIGHT_CODES, SpectralLight
+from ..core.lights import SpectralLight
 from . import btf_storage, shaders
 from .gpu_context import ensure_gpu
-from .gpu_material import DisplaySettings, display_matrices, float_texture, std140_mat4
-from .shaders import MAX_LIGHTS, OUTPUTS, glsl_source
+from .gpu_material import (
+    DisplaySettings,
+    array_texture,
+    display_matrices,
+    float_texture,
+    std140_mat4,
+)
+from .shaders import MAX_LIGHTS, OUTPUTS, glsl_source, light_type_bits
 
 PARAMS_BYTES = 3 * 64 + 3 * 16 + 2 * 16
 KIND_CODES = {"RFP": 0, "RFNL": 1}
@@ -44,14 +50,12 @@ class BTFShaderKey:
     output: str = "XYZ"
 
     def defines(self) -> dict[str, str]:
-        types = 0
-        for kind in self.light_types:
-            types |= 1 << LIGHT_CODES[kind]
         return {"SM_BTF_KIND": str(KIND_CODES[self.kind]), "SM_BTF_LOBES": str(self.lobes),
                 "SM_BTF_COEFFS": str(self.coefficients),
                 "SM_BTF_ALBEDO_RECORDS": str(-(-self.coefficients // 4)),
                 "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
-                "SM_LIGHTS": str(self.lights), "SM_LIGHT_TYPES": str(types),
+                "SM_LIGHTS": str(self.lights),
+                "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
                 "SM_OUTPUT": str(OUTPUTS[self.output])}
 
     def validate(self) -> None:
@@ -108,15 +112,6 @@ def gpu_limits() -> tuple[int, int]:
     return int(caps.max_texture_layers_get()), int(caps.max_texture_size_get())
 
 
-def array_texture(layers: np.ndarray):
-    """An RGBA32F 2D-array texture from (layers, H, W, 4)."""
-    import gpu
-
-    ensure_gpu()
-    m, h, w = layers.shape[:3]
-    data = np.ascontiguousarray(layers, dtype=np.float32)
-    buffer = gpu.types.Buffer("FLOAT", data.size, data.ravel())
-    return gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
 
 
 class BTFMaterial:
@@ -132,13 +127,12 @@ class BTFMaterial:
                                       max_size=max_size)
         self.record_texture = array_texture(drawable.layer_images(self.layout))
         tri = drawable.triangulation
-        self.cell_texture = float_texture(tri.cell_table())
-        self.triangle_texture = float_texture(tri.triangle_table())
-        self.candidate_texture = float_texture(tri.candidate_table())
+        tables = (tri.cell_table(), tri.triangle_table(), tri.candidate_table())
+        self.cell_texture, self.triangle_texture, self.candidate_texture = \
+            (float_texture(table) for table in tables)
         self.grid = tri.grid
         self.nbytes = int(self.layout.layers * self.layout.size[0] * self.layout.size[1] * 16
-                          + tri.cell_table().nbytes + tri.triangle_table().nbytes
-                          + tri.candidate_table().nbytes)
+                          + sum(table.nbytes for table in tables))
         self._light_texture: tuple | None = None
 
     def key(self, lights: list[SpectralLight], output: str = "XYZ") -> BTFShaderKey:

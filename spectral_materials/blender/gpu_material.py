@@ -35,6 +35,18 @@ def float_texture(texels: np.ndarray):
     return gpu.types.GPUTexture((width, height), format="RGBA32F", data=buffer)
 
 
+def array_texture(layers: np.ndarray):
+    """An RGBA32F 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA."""
+    import gpu
+
+    ensure_gpu()
+    m, h, w = layers.shape[:3]
+    texels = np.zeros((m, h, w, 4), dtype=np.float32)
+    texels[..., : layers.shape[3]] = layers
+    buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
+    return gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
+
+
 @dataclass
 class MaterialUniforms:
     """Per-axis lookup uniforms (padded to 4 axes) of a factored model."""

@@ -48,8 +48,51 @@ class _Worker:
 
 
 class _ModalJob:
-    """A job in a worker thread behind a progress bar: subclasses start ``self._worker``
-    in ``invoke`` and say how to ``_finish`` (commit) its result on the main thread."""
+    """A job planned on the main thread, run in a worker thread behind a progress bar and
+    committed on the main thread. Subclasses give :meth:`plan` (reads ``bpy``),
+    :meth:`run` (must not touch ``bpy``: it runs in the worker thread) and :meth:`commit`
+    (stores the result, returns the message to report)."""
+
+    def plan(self, context):
+        raise NotImplementedError
+
+    def run(self, plan, callback=None):
+        raise NotImplementedError
+
+    def commit(self, context, plan, result) -> str:
+        raise NotImplementedError
+
+    def _commit(self, context, plan, result) -> set[str]:
+        try:
+            message = self.commit(context, plan, result)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        self.report({"INFO"}, message)
+        return {"FINISHED"}
+
+    def execute(self, context):
+        try:
+            plan = self.plan(context)
+            result = self.run(plan)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        return self._commit(context, plan, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        if context.window_manager.spectral_job.running:
+            self.report({"WARNING"}, "A spectral job is already running")
+            return {"CANCELLED"}
+        try:
+            plan = self.plan(context)
+        except Exception as exc:  # noqa: BLE001
+            return self._report_failure(exc)
+        self._plan = plan
+        return self._start(context, lambda cb: self.run(plan, cb))
+
+    def _finish(self, context, result) -> set[str]:
+        return self._commit(context, self._plan, result)
 
     def _report_failure(self, exc: BaseException) -> set[str]:
         if isinstance(exc, Cancelled):
@@ -108,43 +151,16 @@ class _ModalJob:
 
 
 class _SceneJobOperator(_ModalJob):
-    """Shared modal/synchronous machinery; subclasses say what to plan and whether to factor."""
+    """Scene analysis and factoring; subclasses say what to plan and whether to factor."""
 
     bl_options = {"REGISTER", "UNDO"}
     factor_materials = True
 
-    def plan(self, context) -> scene.ScenePlan:
-        raise NotImplementedError
+    def run(self, plan, callback=None):
+        return jobs.run_scene_job(plan, callback, factor=self.factor_materials)
 
-    def _finish(self, context, result) -> set[str]:
-        try:
-            message = jobs.commit_scene_job(context.scene, result)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        self.report({"INFO"}, message)
-        return {"FINISHED"}
-
-    def execute(self, context):
-        try:
-            plan = self.plan(context)
-            result = jobs.run_scene_job(plan, None, factor=self.factor_materials)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        return self._finish(context, result)
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        job = context.window_manager.spectral_job
-        if job.running:
-            self.report({"WARNING"}, "A spectral job is already running")
-            return {"CANCELLED"}
-        try:
-            plan = self.plan(context)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        factor = self.factor_materials
-        return self._start(context, lambda cb: jobs.run_scene_job(plan, cb, factor=factor))
+    def commit(self, context, plan, result) -> str:
+        return jobs.commit_scene_job(context.scene, result)
 
 
 class SPECTRAL_OT_factor_material(_SceneJobOperator, bpy.types.Operator):
@@ -297,44 +313,20 @@ class SPECTRAL_OT_bake_prt(_ModalJob, bpy.types.Operator):
             return False
         return True
 
-    def _commit(self, context, plan, result) -> set[str]:
-        try:
-            prt.commit_bake(context.scene, plan, result)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
+    def plan(self, context):
+        return prt.plan_bake(context.active_object, context.scene)
+
+    def run(self, plan, callback=None):
+        return prt.run_bake(plan, callback)
+
+    def commit(self, context, plan, result) -> str:
+        prt.commit_bake(context.scene, plan, result)
         from . import draw
 
         draw.redraw_viewports()
-        self.report({"INFO"}, f"'{plan.object_name}': {len(plan.geometry.positions)} vertices × "
-                              f"{plan.rays} rays in {result.seconds:.1f} s "
-                              f"({result.rays_per_second / 1e6:.2f} M rays/s, "
-                              f"{result.backend})")
-        return {"FINISHED"}
-
-    def execute(self, context):
-        try:
-            plan = prt.plan_bake(context.active_object, context.scene)
-            result = prt.run_bake(plan)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        return self._commit(context, plan, result)
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        job = context.window_manager.spectral_job
-        if job.running:
-            self.report({"WARNING"}, "A spectral job is already running")
-            return {"CANCELLED"}
-        try:
-            self._plan = prt.plan_bake(context.active_object, context.scene)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        plan = self._plan
-        return self._start(context, lambda cb: prt.run_bake(plan, cb))
-
-    def _finish(self, context, result) -> set[str]:
-        return self._commit(context, self._plan, result)
+        return (f"'{plan.object_name}': {len(plan.geometry.positions)} vertices × "
+                f"{plan.rays} rays in {result.seconds:.1f} s "
+                f"({result.rays_per_second / 1e6:.2f} M rays/s, {result.backend})")
 
 
 class SPECTRAL_OT_clear_prt(bpy.types.Operator):
@@ -369,41 +361,18 @@ class SPECTRAL_OT_fit_btf(_ModalJob, bpy.types.Operator):
             return False
         return True
 
-    def _commit(self, context, result) -> set[str]:
-        try:
-            btf.commit_fit(self._material, result)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
+    def plan(self, context):
+        return btf.plan_fit(_active_material(context))
+
+    def run(self, plan, callback=None):
+        return btf_job.run_btf_job(plan, callback)
+
+    def commit(self, context, plan, result) -> str:
+        btf.commit_fit(plan.name, result)
         from . import draw
 
         draw.redraw_viewports()
-        self.report({"INFO"}, btf.status(bpy.data.materials[self._material]))
-        return {"FINISHED"}
-
-    def execute(self, context):
-        try:
-            job = btf.plan_fit(_active_material(context))
-            self._material = job.name
-            result = btf_job.run_btf_job(job)
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        return self._commit(context, result)
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        if context.window_manager.spectral_job.running:
-            self.report({"WARNING"}, "A spectral job is already running")
-            return {"CANCELLED"}
-        try:
-            job = btf.plan_fit(_active_material(context))
-        except Exception as exc:  # noqa: BLE001
-            return self._report_failure(exc)
-        self._material = job.name
-        return self._start(context, lambda cb: btf_job.run_btf_job(job, cb))
-
-    def _finish(self, context, result) -> set[str]:
-        return self._commit(context, result)
+        return btf.status(bpy.data.materials[plan.name])
 
 
 class SPECTRAL_OT_clear_btf(bpy.types.Operator):

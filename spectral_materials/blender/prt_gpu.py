@@ -23,8 +23,13 @@ import numpy as np
 
 from ..core import prt as core_prt
 from . import bake, mesh_batches, prt, shaders
-from .gpu_context import ensure_gpu
-from .gpu_material import DisplaySettings, display_matrices, float_texture, std140_mat4
+from .gpu_material import (
+    DisplaySettings,
+    array_texture,
+    display_matrices,
+    float_texture,
+    std140_mat4,
+)
 from .shaders import OUTPUTS, glsl_source
 
 TRANSFER_WIDTH = 4096
@@ -183,16 +188,6 @@ def environment_texels(coefficients: np.ndarray) -> np.ndarray:
     return out.reshape(out.shape[0], -1, 4)
 
 
-def array_texture(layers: np.ndarray):
-    """An RGBA32F 2D-array texture from (layers, H, W, 3|4)."""
-    import gpu
-
-    ensure_gpu()
-    m, h, w = layers.shape[:3]
-    texels = np.zeros((m, h, w, 4), dtype=np.float32)
-    texels[..., : layers.shape[3]] = layers
-    buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
-    return gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
 
 
 def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:

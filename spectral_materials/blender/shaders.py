@@ -31,6 +31,15 @@ MAX_LIGHTS = 32
 _CACHE: dict = {}
 
 
+def light_type_bits(kinds) -> int:
+    """``SM_LIGHT_TYPES``: bit ``LIGHT_CODES[kind]`` set for each light type drawn, so that
+    glsl/lights.glsl compiles only the branches a scene needs."""
+    bits = 0
+    for kind in kinds:
+        bits |= 1 << LIGHT_CODES[kind]
+    return bits
+
+
 @dataclass(frozen=True)
 class ShaderKey:
     """The ``#define``s of one variant."""
@@ -47,16 +56,13 @@ class ShaderKey:
     sphere: bool = False
 
     def defines(self) -> dict[str, str]:
-        types = 0
-        for kind in self.light_types:
-            types |= 1 << LIGHT_CODES[kind]
         out = {
             "SM_PARAM": str(PARAMETERIZATION_CODES[self.parameterization]),
             "SM_AXES": str(self.axes),
             "SM_PACKS": str(self.packs),
             "SM_COEFFS": str(self.coefficients),
             "SM_LIGHTS": str(self.lights),
-            "SM_LIGHT_TYPES": str(types),
+            "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             "SM_OUTPUT": str(OUTPUTS[self.output]),

@@ -167,22 +167,9 @@ class BTF:
         return (self.values @ self.channel_weights().astype(np.float32)).astype(np.float32)
 
     def spectral_reflectance(self, wavelengths: np.ndarray | None = None) -> np.ndarray:
-        """``values`` as reflectance spectra on ``wavelengths`` (default: the reference
-        5 nm grid) — linear interpolation for spectral data (0 outside its range is not
-        assumed: end values are held), Smits (1999) uplift for RGB."""
-        wl = spectra.WAVELENGTHS_REFERENCE if wavelengths is None else \
-            spectra.check_wavelengths(wavelengths)
-        flat = self.values.reshape(-1, self.values.shape[-1]).astype(np.float64)
-        if self.spectral:
-            out = flat @ _interpolation_matrix(self.wavelengths, wl)
-        else:
-            from .formats.merl import SmitsUplift
-
-            uplift = SmitsUplift()
-            out = np.full((len(flat), len(wl)), np.nan)
-            ok = np.isfinite(flat).all(axis=1)
-            out[ok] = uplift.weights(flat[ok]) @ uplift.basis(wl)
-        return out.reshape(*self.values.shape[:-1], len(wl))
+        """``values`` as reflectance spectra (:func:`reflectance_spectra`) on
+        ``wavelengths`` (default: the reference 5 nm grid)."""
+        return reflectance_spectra(self.values, self.wavelengths, wavelengths)
 
     def subset(self, *, views=None, lights=None, texels: tuple[slice, slice] | None = None
                ) -> BTF:
@@ -193,6 +180,27 @@ class BTF:
         values = self.values[vi][:, li][:, :, ys, xs]
         return BTF(np.ascontiguousarray(values), self.views[vi], self.lights[li],
                    self.wavelengths, self.name)
+
+
+def reflectance_spectra(values: np.ndarray, wavelengths: np.ndarray | None,
+                        target: np.ndarray | None = None) -> np.ndarray:
+    """Samples (…, C) as reflectance spectra (…, len(target)) on ``target`` (default: the
+    reference 5 nm grid): linear interpolation when ``wavelengths`` (C,) are given (end
+    values held, not zero), the Smits (1999) uplift of linear Rec.709 RGB when None.
+    Samples with NaN stay NaN."""
+    wl = spectra.WAVELENGTHS_REFERENCE if target is None else spectra.check_wavelengths(target)
+    values = np.asarray(values)
+    flat = values.reshape(-1, values.shape[-1]).astype(np.float64)
+    if wavelengths is not None:
+        out = flat @ _interpolation_matrix(np.asarray(wavelengths, np.float64), wl)
+    else:
+        from .formats.merl import SmitsUplift
+
+        uplift = SmitsUplift()
+        out = np.full((len(flat), len(wl)), np.nan)
+        ok = np.isfinite(flat).all(axis=1)
+        out[ok] = uplift.weights(flat[ok]) @ uplift.basis(wl)
+    return out.reshape(*values.shape[:-1], len(wl))
 
 
 def _interpolation_matrix(source: np.ndarray, target: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import btf_fit, btf_generate, btf_render
-from .btf import BTF, btf_from_ubo
+from .btf import BTF, btf_from_ubo, reflectance_spectra
 from .progress import report
 
 SOURCES = ("corduroy", "knit", "stones", "ubo2003", "ubo2014")
@@ -73,10 +73,8 @@ def albedo_coefficients(albedo: np.ndarray, wavelengths: np.ndarray | None,
                         basis_size: int) -> tuple[np.ndarray, np.ndarray]:
     """(basis, coefficients) of per-texel albedo (H, W, C) on the reference grid: spectral
     albedo interpolated (end values held), RGB albedo uplifted with Smits (1999)."""
-    h, w, c = albedo.shape
-    holder = BTF(np.maximum(albedo, 0.0)[None, None], [[0.0, 0.0, 1.0]], [[0.0, 0.0, 1.0]],
-                 wavelengths)
-    spectra = holder.spectral_reflectance(btf_render.WAVELENGTHS)[0, 0]
+    spectra = reflectance_spectra(np.maximum(albedo, 0.0), wavelengths,
+                                  btf_render.WAVELENGTHS)
     return btf_render.albedo_basis(spectra, basis_size)
 
 

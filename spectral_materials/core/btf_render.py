@@ -48,14 +48,15 @@ import numpy as np
 
 from . import spectra
 from .btf import HemisphereTriangulation
+from .btf_fit import rfp_basis
+from .btf_lm import A_MAX, N_MAX, N_MIN  # noqa: F401  (re-exported bounds)
 from .lights import SpectralLight
-from .shading import LIGHT_HEADER
+from .shading import light_rows, xyz_texels
 
 KINDS = ("RFP", "RFNL")
-#: Largest lobe amplitude stored (below float16's 65504).
-AMPLITUDE_MAX = 60000.0
-#: Lobe exponents are kept in [N_MIN, N_MAX]: pow(x, n) is defined for x = 0 and n > 0.
-N_MIN, N_MAX = 0.5, 10000.0
+#: Largest lobe amplitude stored, and the lobe exponents' range: the fit's bounds
+#: (``btf_lm``), so a fitted model is drawn as fitted.
+AMPLITUDE_MAX = A_MAX
 #: Spectral coefficients per texel at most (two records).
 MAX_COEFFICIENTS = 8
 #: Reference grid of the albedo spectra and of the light weights.
@@ -230,9 +231,8 @@ class DrawableBTF:
         p = self.params[view, row, col].astype(np.float64)
         l = np.asarray(lights, dtype=np.float64)
         if self.kind == "RFP":
-            lu, lv = l[..., 0], l[..., 1]
-            y = (p[..., 0] * lu * lu + p[..., 1] * lv * lv + p[..., 2] * lu * lv
-                 + p[..., 3] * lu + p[..., 4] * lv + p[..., 5])
+            y = np.einsum("nk,nk->n", rfp_basis(l), p.reshape(-1, p.shape[-1])[:, :6]) \
+                .reshape(p.shape[:-1])
         else:
             y = p[..., 0].copy()
             for j in range(self.lobes):
@@ -259,19 +259,8 @@ class DrawableBTF:
     def light_texels(self, lights: list[SpectralLight]) -> np.ndarray:
         """The light texture (lights, LIGHT_HEADER + m, 4): ``glsl/lights.glsl``'s header,
         then the light's XYZ weights Ĩ_j on the albedo basis."""
-        if not lights:
-            raise ValueError("nothing to draw with: no lights")
-        m = self.coefficients.shape[2]
-        texels = np.zeros((len(lights), LIGHT_HEADER + m, 4))
-        for row, light in enumerate(lights):
-            texels[row, 0] = (*light.position, light.code)
-            texels[row, 1] = (*light.axis, light.strength)
-            texels[row, 2, :2] = (light.spot_cos, light.spot_blend_width)
-            texels[row, LIGHT_HEADER:, :3] = light.weights(WAVELENGTHS, self.basis)
-        if not np.isfinite(texels).all() or np.abs(texels).max() > np.finfo(np.float32).max:
-            raise ValueError("light data overflow float32: a light's strength or SPD is too "
-                             "large")
-        return texels.astype(np.float32)
+        return light_rows(lights, lambda light: xyz_texels(light.weights(WAVELENGTHS,
+                                                                         self.basis)))
 
     def shade_xyz(self, uv: np.ndarray, frames: np.ndarray, points: np.ndarray,
                   toward_viewer: np.ndarray, lights: list[SpectralLight], *,

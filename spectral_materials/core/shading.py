@@ -87,38 +87,57 @@ class View:
         return (*map(float, self.origin), 1.0 if self.perspective else 0.0)
 
 
+def light_rows(lights: list[SpectralLight], spectral_texels) -> np.ndarray:
+    """A light texture (lights, LIGHT_HEADER + K, 4) float32 (glsl/lights.glsl).
+
+    Header texels: (position, type code), (axis, strength), (spot cos, spot blend
+    width, 0, 0); then ``spectral_texels(light)``, (K, 4), whatever the shader reads after
+    the header. Every draw path's light texture is built here.
+    """
+    if not lights:
+        raise ValueError("nothing to draw with: no lights")
+    rows = []
+    for light in lights:
+        header = np.zeros((LIGHT_HEADER, 4))
+        header[0] = (*light.position, light.code)
+        header[1] = (*light.axis, light.strength)
+        header[2, :2] = (light.spot_cos, light.spot_blend_width)
+        rows.append(np.concatenate([header, np.asarray(spectral_texels(light), np.float64)]))
+    texels = np.stack(rows)
+    if not np.isfinite(texels).all() or np.abs(texels).max() > np.finfo(np.float32).max:
+        raise ValueError("light data overflow float32: a light's strength or SPD is too large")
+    return texels.astype(np.float32)
+
+
+def xyz_texels(weights: np.ndarray) -> np.ndarray:
+    """(S, 4): spectral XYZ weights (S, 3), one texel each (xyz, w = 0)."""
+    out = np.zeros((len(weights), 4))
+    out[:, :3] = weights
+    return out
+
+
 def light_texels(model: FactoredBRDF, lights: list[SpectralLight], *,
                  precontract: bool = True) -> np.ndarray:
     """The light texture (lights, width, 4) float32 for drawing ``model`` (glsl/lights.glsl).
 
-    Header texels: (position, type code), (axis, strength), (spot cos, spot blend
-    width, 0, 0). Then, with ``precontract``, 3 texels per pack holding the X, Y,
-    Z weights of its 4 terms, ``K = spectralᵀ Ĩ``; without, the light's spectral
-    weights Ĩ_j (one texel each, xyz).
+    After the header (:func:`light_rows`): with ``precontract``, 3 texels per pack holding
+    the X, Y, Z weights of its 4 terms, ``K = spectralᵀ Ĩ``; without, the light's
+    spectral weights Ĩ_j (one texel each, xyz).
     """
     if model.form != "cp":
         raise ValueError("the GPU path draws CP factor packs; refactor separable models as CP")
-    if not lights:
-        raise ValueError("nothing to draw with: no lights")
     groups = -(-model.terms // 4)
-    width = LIGHT_HEADER + (3 * groups if precontract else model.spectral_size)
-    texels = np.zeros((len(lights), width, 4), dtype=np.float64)
     spectral = np.zeros((model.spectral_size, groups * 4))
     spectral[:, : model.terms] = model.spectral
-    for row, light in enumerate(lights):
-        texels[row, 0] = (*light.position, light.code)
-        texels[row, 1] = (*light.axis, light.strength)
-        texels[row, 2, :2] = (light.spot_cos, light.spot_blend_width)
+
+    def after_header(light: SpectralLight) -> np.ndarray:
         weights = light.weights(model.wavelengths, model.basis)          # (S, 3)
-        if precontract:
-            k = spectral.T @ weights                                      # (4G, 3)
-            texels[row, LIGHT_HEADER:] = k.reshape(groups, 4, 3).transpose(0, 2, 1) \
-                .reshape(3 * groups, 4)
-        else:
-            texels[row, LIGHT_HEADER:, :3] = weights
-    if not np.isfinite(texels).all() or np.abs(texels).max() > np.finfo(np.float32).max:
-        raise ValueError("light data overflow float32: a light's strength or SPD is too large")
-    return texels.astype(np.float32)
+        if not precontract:
+            return xyz_texels(weights)
+        k = spectral.T @ weights                                          # (4G, 3)
+        return k.reshape(groups, 4, 3).transpose(0, 2, 1).reshape(3 * groups, 4)
+
+    return light_rows(lights, after_header)
 
 
 def _shade(points, normals, tangents, view: View, lights, reflect, two_sided: bool):
