@@ -25,6 +25,7 @@ from bpy.app.handlers import persistent
 from ..core.shading import View
 from . import btf_gpu, btf_storage, mesh_batches, prt, prt_gpu, scene_lights, shaders, storage
 from .gpu_material import DisplaySettings, GPUMaterial
+from .gpu_state import spectral_draw_state
 from .offscreen import Target
 from .scene import GEOMETRY_TYPES, _renders
 
@@ -268,8 +269,6 @@ def render_camera(scene, *, width: int | None = None, height: int | None = None,
 
 
 def _viewport_callback() -> None:
-    import gpu
-
     context = bpy.context
     scene = context.scene
     region_data = context.region_data
@@ -281,11 +280,11 @@ def _viewport_callback() -> None:
     else:
         view = View(tuple(view_inverse[:3, 2] / np.linalg.norm(view_inverse[:3, 2])))
     global VIEWPORT_ERROR, LAST_STATS
-    gpu.state.depth_test_set("LESS_EQUAL")
-    gpu.state.depth_mask_set(True)
     try:
-        LAST_STATS = draw_objects(scene, context.evaluated_depsgraph_get(),
-                     np.array(region_data.perspective_matrix), view, occluders=False)
+        with spectral_draw_state():
+            LAST_STATS = draw_objects(scene, context.evaluated_depsgraph_get(),
+                                      np.array(region_data.perspective_matrix), view,
+                                      occluders=False)
     except (ValueError, OSError) as exc:
         # A draw callback runs every redraw: report once, show it in the panel, go on.
         if str(exc) != VIEWPORT_ERROR:
@@ -293,9 +292,6 @@ def _viewport_callback() -> None:
         VIEWPORT_ERROR = str(exc)
     else:
         VIEWPORT_ERROR = ""
-    finally:
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
 
 
 def enable_viewport() -> None:

@@ -14,6 +14,7 @@ from ..core.lights import SpectralLight
 from ..core.shading import protocol_sun
 from .gpu_context import ensure_gpu
 from .gpu_material import DisplaySettings, GPUMaterial
+from .gpu_state import spectral_draw_state
 from .shaders import get_shader
 
 MAX_SIZE = 8192
@@ -32,7 +33,10 @@ def read_back(framebuffer, width: int, height: int) -> np.ndarray:
 
 
 class Target:
-    """An RGBA32F offscreen with depth, cleared to transparent black; use as a context."""
+    """An RGBA32F offscreen with depth, cleared to transparent black; use as a context.
+
+    Inside, the pipeline state is :func:`gpu_state.spectral_draw_state`'s, whatever an
+    earlier draw left set."""
 
     def __init__(self, width: int, height: int):
         import gpu
@@ -48,10 +52,10 @@ class Target:
 
         self._bound = self.offscreen.bind()
         self._bound.__enter__()
+        self._state = spectral_draw_state()
+        self._state.__enter__()
         framebuffer = gpu.state.active_framebuffer_get()
         framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-        gpu.state.depth_test_set("LESS_EQUAL")
-        gpu.state.depth_mask_set(True)
         self.framebuffer = framebuffer
         return self
 
@@ -59,10 +63,7 @@ class Target:
         return read_back(self.framebuffer, self.width, self.height)
 
     def __exit__(self, *exc) -> None:
-        import gpu
-
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
+        self._state.__exit__(*exc)
         self._bound.__exit__(*exc)
         self.offscreen.free()
 
