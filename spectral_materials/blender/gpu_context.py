@@ -10,6 +10,12 @@ llvmpipe); later calls return at once.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+
 import bpy
 
 _READY = False
@@ -46,19 +52,49 @@ def _tiny_render() -> None:
         bpy.data.scenes.remove(scene)
 
 
+#: Lines Blender prints while it looks for an EGL configuration that works. Each failed
+#: attempt says "EGL_BAD_MATCH" before a later one succeeds; they mean nothing to a user
+#: whose drawing then works, so they are shown only if the GPU cannot be initialised.
+_EGL_PROBING = ("EGL Error (0x3009): EGL_BAD_MATCH",)
+
+
+@contextlib.contextmanager
+def _native_stderr_captured(captured: list[str]) -> Iterator[None]:
+    """Collect what C code writes to file descriptor 2 (Blender's own messages) into
+    ``captured``; lines not in ``_EGL_PROBING`` are written back to stderr afterwards."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            captured.extend(sink.read().decode("utf-8", "replace").splitlines())
+    others = [line for line in captured if not line.startswith(_EGL_PROBING)]
+    if others:
+        print("\n".join(others), file=sys.stderr)
+
+
 def ensure_gpu() -> None:
     """Make ``gpu`` usable; raises :class:`GPUUnavailable` with what to do if it cannot."""
     global _READY
     if _READY:
         return
     if not _probe():
+        messages: list[str] = []
         try:
-            _tiny_render()
+            with _native_stderr_captured(messages):
+                _tiny_render()
         except RuntimeError as exc:
             raise GPUUnavailable(f"could not initialise the GPU through an EEVEE render: {exc}"
-                                 ) from exc
+                                 + "".join(f"\n  {line}" for line in messages)) from exc
         if not _probe():
             raise GPUUnavailable(
                 "the GPU is not available: headless drawing needs EGL (on Debian/Ubuntu: "
-                "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1)")
+                "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1)"
+                + "".join(f"\n  {line}" for line in messages))
     _READY = True

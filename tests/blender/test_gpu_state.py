@@ -123,3 +123,20 @@ def test_every_cache_is_emptied_by_a_file_load(clean_scene, matte_model, tmp_pat
     assert not prt_gpu._OBJECTS and not btf_gpu._MATERIALS
     # And the reopened scene draws as before.
     assert (_render()[..., 3] > 0.5).mean() > 0.2
+
+
+def test_initialising_the_gpu_prints_nothing_a_user_cannot_act_on():
+    """Blender's EGL probing ("EGL_BAD_MATCH" per failed configuration) is kept off the
+    terminal when a working context follows; a fresh process, as a user's script starts."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = ("import bpy\nfrom spectral_materials import blender as addon\naddon.register()\n"
+            "from spectral_materials.blender import gpu_context\ngpu_context.ensure_gpu()\n"
+            "import gpu\ngpu.types.GPUOffScreen(4, 4).free()\nprint('drawn')\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600, cwd=Path(__file__).resolve().parents[2], check=False)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().endswith("drawn")
+    assert "EGL_BAD_MATCH" not in done.stderr + done.stdout, done.stderr
