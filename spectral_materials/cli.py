@@ -179,39 +179,16 @@ def parse_spectrum(text: str):
 
 
 def read_spectrum_csv(path: str) -> tuple[np.ndarray, np.ndarray]:
-    """Two columns ``wavelength_nm,value`` (comma, semicolon, tab or spaces); a header
-    line and ``#`` comments are allowed. Returns ``(wavelengths, values)``."""
-    file = Path(path)
+    """The add-on's reader (:func:`~spectral_materials.core.spectrum_library.read_spectrum_csv`:
+    two columns ``wavelength_nm,value``, headers, comments, decimal commas, UTF-16,
+    reversed files, size and value limits), its errors as :class:`UsageError`."""
+    from .core.spectrum_library import SpectrumFileError
+    from .core.spectrum_library import read_spectrum_csv as read
+
     try:
-        text = file.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"csv spectrum {path}: cannot read ({exc})") from None
-    rows = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        line = line.split("#", 1)[0].strip()
-        if not line:
-            continue
-        fields = line.replace(";", ",").replace("\t", ",").split(",")
-        if len(fields) == 1:
-            fields = line.split()
-        fields = [f.strip() for f in fields if f.strip()]
-        try:
-            if len(fields) < 2:
-                raise ValueError
-            rows.append((float(fields[0]), float(fields[1])))
-        except ValueError:
-            if not rows:  # a header line before the data
-                continue
-            raise UsageError(f"csv spectrum {path}, line {number}: expected two numbers "
-                             f"'wavelength_nm,value', got {line!r}") from None
-    if len(rows) < 2:
-        raise UsageError(f"csv spectrum {path}: needs at least two rows of wavelength_nm,value")
-    data = np.array(rows, dtype=np.float64)
-    if not np.isfinite(data).all():
-        raise UsageError(f"csv spectrum {path}: contains NaN or inf")
-    if np.any(np.diff(data[:, 0]) <= 0):
-        raise UsageError(f"csv spectrum {path}: wavelengths must be strictly increasing")
-    return data[:, 0].copy(), data[:, 1].copy()
+        return read(path)
+    except SpectrumFileError as exc:
+        raise UsageError(f"csv spectrum: {exc}") from None
 
 
 def _basis_arg(text: str):

@@ -3,7 +3,14 @@
 Every entry point validates before it trusts: malformed input of any kind raises a
 :class:`ValueError` whose message names the problem (the offending token, line or
 wavelength), never a bare ``IndexError`` or ``UnicodeDecodeError``, so the add-on can
-show the message to the user as it is.
+show the message to the user as it is. A file's problems raise
+:class:`SpectrumFileError` (a ``ValueError``) naming the file.
+
+Values beyond ±10³⁰ and file wavelengths outside 10 nm – 100 µm are refused where they are
+read (:mod:`spectral_materials.core.sample_limits` says why). Reading a file costs memory
+in proportion to it: at most :data:`MAX_CSV_BYTES` are read, lines are taken one at a
+time, at most :data:`MAX_CSV_ROWS` samples are kept, and a line is split into no more
+fields than it takes to see that it has too many.
 
 Spectra are handed around as ``(wavelengths, values)`` pairs of 1-D float64 arrays,
 wavelengths in nm and strictly increasing: the tuple form of
@@ -21,12 +28,14 @@ from __future__ import annotations
 import math
 import os
 import re
+from collections.abc import Iterator
 
 import numpy as np
 from colour.colorimetry import planck_law
 from numpy.typing import ArrayLike
 
 from . import spectra
+from .sample_limits import MAX_SAMPLE, WAVELENGTH_LIMITS_NM
 
 #: The visible range that a plain list of typed values is spread over, in nm.
 TEXT_RANGE_NM = (380.0, 780.0)
@@ -40,6 +49,10 @@ MAX_TEXT_CHARS = 1_000_000
 #: Largest spectrum CSV file read, in bytes (10 MB).
 MAX_CSV_BYTES = 10 * 1024 * 1024
 
+#: Most samples (data lines) read from a spectrum CSV file: 1 nm steps over 10 nm – 100 µm
+#: (the same cap as ``formats.tabulated.MAX_WAVELENGTHS``).
+MAX_CSV_ROWS = 100_000
+
 #: Blackbody temperatures accepted by :func:`blackbody_spd`, in K.
 BLACKBODY_LIMITS_K = (500.0, 1.0e6)
 
@@ -47,10 +60,29 @@ BLACKBODY_LIMITS_K = (500.0, 1.0e6)
 BLACKBODY_NORMALISATION_NM = 560.0
 
 # A plain decimal number, ASCII digits only (``float`` alone would accept "nan",
-# "1_000" and non-ASCII digits such as "١٢").
-_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+# "1_000" and non-ASCII digits such as "١٢"). The fraction needs its point, so a run of
+# digits can be matched one way only: "[0-9]+\.?[0-9]*" backtracked quadratically on a
+# long run of digits that is not a number (100,000 digits: minutes).
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 # A text token: a ``wl:value`` pair (spaces allowed around the colon) or a bare value.
 _TEXT_TOKEN = re.compile(r"[^\s,;:]*[ \t]*:[ \t]*[^\s,;:]*|[^\s,;]+")
+# The line boundaries of ``str.splitlines``.
+_LINE_BREAK = re.compile(r"\r\n|[\n\r\v\f\x1c\x1d\x1e\x85\u2028\u2029]")
+# Fields split off one line at most: enough to tell two from "too many".
+_MAX_SPLIT = 8
+# Characters of a token quoted in a message.
+_SHOWN_CHARS = 40
+
+
+class SpectrumFileError(ValueError):
+    """A spectrum file cannot be used; the message names the file (and line) and why."""
+
+
+def _shown(token: str) -> str:
+    """``repr`` of a token for a message, cut short: a token can be megabytes long."""
+    if len(token) <= _SHOWN_CHARS:
+        return repr(token)
+    return repr(token[:_SHOWN_CHARS]) + f"… ({len(token):,} characters)"
 
 
 def _parse_number(token: str) -> float | None:
@@ -65,12 +97,15 @@ def _parse_number(token: str) -> float | None:
     return math.nan if token.strip().lower().lstrip("+-") in {"nan", "inf", "infinity"} else None
 
 
-def _number_or_raise(token: str, what: str) -> float:
+def _number_or_raise(token: str, what: str, error: type[ValueError] = ValueError) -> float:
     value = _parse_number(token)
     if value is None:
-        raise ValueError(f"{what}: {token!r} is not a number")
+        raise error(f"{what}: {_shown(token)} is not a number")
     if math.isnan(value):
-        raise ValueError(f"{what}: {token!r} is not finite (NaN and inf are not allowed)")
+        raise error(f"{what}: {_shown(token)} is not finite (NaN and inf are not allowed)")
+    if abs(value) > MAX_SAMPLE:
+        raise error(f"{what}: {_shown(token)} is beyond ±{MAX_SAMPLE:g}; no spectrum holds "
+                    "such values (sample_limits)")
     return value
 
 
@@ -87,8 +122,9 @@ def parse_spectrum_text(text: str) -> tuple[np.ndarray, np.ndarray]:
       ramp); a single value is a constant, returned as two samples at 380 and 780 nm.
 
     Tokens are separated by commas, semicolons and/or white space. Numbers are plain
-    ASCII decimals (``0.5``, ``-1``, ``4.5e2``). Values are not range-checked here: use
-    :func:`check_reflectance` or :func:`check_spd`.
+    ASCII decimals (``0.5``, ``-1``, ``4.5e2``). Values beyond ±10³⁰ are refused (no
+    spectrum holds them; see :mod:`spectral_materials.core.sample_limits`); other ranges are
+    not checked here: use :func:`check_reflectance` or :func:`check_spd`.
 
     Parameters
     ----------
@@ -103,8 +139,8 @@ def parse_spectrum_text(text: str) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     ValueError
-        Empty text; a token that is not a number, or NaN/inf (the message gives the
-        token, its number and its character position); wavelengths not strictly
+        Empty text; a token that is not a number, NaN/inf or beyond ±10³⁰ (the message
+        gives the token, its number and its character position); wavelengths not strictly
         increasing or outside 300–900 nm; the two styles mixed.
 
     Examples
@@ -119,16 +155,14 @@ def parse_spectrum_text(text: str) -> tuple[np.ndarray, np.ndarray]:
     if len(text) > MAX_TEXT_CHARS:
         raise ValueError(f"spectrum text is too long ({len(text)} characters, "
                          f"at most {MAX_TEXT_CHARS})")
-    tokens = [(m.group(), m.start()) for m in _TEXT_TOKEN.finditer(text)]
-    if not tokens:
-        raise ValueError("spectrum text is empty: type values such as '0.2, 0.5, 0.8' "
-                         "or wavelength:value pairs such as '400:0.2, 700:0.8'")
-
-    paired = ":" in tokens[0][0]
+    paired: bool | None = None  # set by the first token
     wavelengths: list[float] = []
     values: list[float] = []
-    for index, (token, start) in enumerate(tokens, start=1):
-        where = f"token {index} {token!r} at character {start + 1}"
+    for index, match in enumerate(_TEXT_TOKEN.finditer(text), start=1):
+        token = match.group()
+        if paired is None:
+            paired = ":" in token
+        where = f"token {index} {_shown(token)} at character {match.start() + 1}"
         if (":" in token) != paired:
             first = "wavelength:value pairs" if paired else "plain values"
             raise ValueError(f"{where}: the text starts with {first}; use one style only, "
@@ -152,6 +186,9 @@ def parse_spectrum_text(text: str) -> tuple[np.ndarray, np.ndarray]:
         wavelengths.append(wl)
         values.append(value)
 
+    if paired is None:
+        raise ValueError("spectrum text is empty: type values such as '0.2, 0.5, 0.8' "
+                         "or wavelength:value pairs such as '400:0.2, 700:0.8'")
     if paired:
         return np.asarray(wavelengths, dtype=np.float64), np.asarray(values, dtype=np.float64)
     if len(values) == 1:
@@ -159,32 +196,131 @@ def parse_spectrum_text(text: str) -> tuple[np.ndarray, np.ndarray]:
     return np.linspace(*TEXT_RANGE_NM, len(values)), np.asarray(values, dtype=np.float64)
 
 
-def _decode(raw: bytes, path: str) -> str:
+def _decode(raw: bytes, label: str) -> str:
     """Text of a CSV file: UTF-8 (BOM optional), UTF-16 with a BOM, else Latin-1."""
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         try:
             return raw.decode("utf-16")
         except UnicodeDecodeError as exc:
-            raise ValueError(f"spectrum file {path!r} has a UTF-16 mark but is not "
-                             "valid UTF-16 text") from exc
+            raise SpectrumFileError(f"spectrum file {label} has a UTF-16 mark but is not "
+                                    "valid UTF-16 text") from exc
     if b"\x00" in raw:
-        raise ValueError(f"spectrum file {path!r} is not a text file (it contains NUL "
-                         "bytes); save it as a UTF-8 CSV")
+        raise SpectrumFileError(f"spectrum file {label} is not a text file (it contains NUL "
+                                "bytes); save it as a UTF-8 CSV")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         return raw.decode("latin-1")  # spectrometer exports in Windows code pages
 
 
+def _lines(text: str) -> Iterator[str]:
+    """``text.splitlines()`` one line at a time: as a list, millions of short lines would
+    cost about 60 bytes each."""
+    start = 0
+    for match in _LINE_BREAK.finditer(text):
+        yield text[start : match.start()]
+        start = match.end()
+    if start < len(text):
+        yield text[start:]
+
+
 def _split_fields(line: str) -> tuple[list[str], str]:
-    """Fields of one CSV line and the separator used (``;``, tab, ``,`` or blanks)."""
+    """Fields of one CSV line and the separator used (``;``, tab, ``,`` or blanks).
+
+    At most ``_MAX_SPLIT + 1`` fields: the last then holds the unsplit rest, so that a line
+    of a million separators costs a copy of the line, not a million strings.
+    """
     for sep in (";", "\t", ","):
         if sep in line:
-            fields = [f.strip() for f in line.split(sep)]
+            fields = [f.strip() for f in line.split(sep, _MAX_SPLIT)]
+            if len(fields) > _MAX_SPLIT and not fields[-1].replace(sep, "").strip():
+                fields[-1] = ""  # the rest is separators only: "450,0.2,,,,,,,,,"
             while len(fields) > 1 and not fields[-1]:  # "450,0.2," from spreadsheets
                 fields.pop()
             return fields, sep
-    return line.split(), " "
+    return line.split(None, _MAX_SPLIT), " "
+
+
+def _open_text(path: str | os.PathLike) -> tuple[str, str]:
+    """``(label, text)`` of a spectrum file: checked, at most MAX_CSV_BYTES read, decoded."""
+    try:
+        path_str = os.fspath(path)
+    except TypeError as exc:
+        raise SpectrumFileError(f"spectrum file path must be a string or path, got "
+                                f"{type(path).__name__}") from exc
+    if not path_str:
+        raise SpectrumFileError("spectrum file path is empty")
+    label = repr(path_str)
+    if not os.path.exists(path_str):
+        raise SpectrumFileError(f"spectrum file {label} does not exist")
+    if not os.path.isfile(path_str):
+        raise SpectrumFileError(f"spectrum file {label} is not a regular file")
+    try:
+        size = os.path.getsize(path_str)
+        if size > MAX_CSV_BYTES:
+            raise SpectrumFileError(f"spectrum file {label} is {size / 1e6:.1f} MB; files over "
+                                    f"{MAX_CSV_BYTES / 1e6:.0f} MB are refused")
+        with open(path_str, "rb") as handle:
+            raw = handle.read(MAX_CSV_BYTES + 1)
+    except OSError as exc:
+        raise SpectrumFileError(f"spectrum file {label} cannot be read: "
+                                f"{exc.strerror or exc}") from exc
+    if len(raw) > MAX_CSV_BYTES:  # grew while we looked
+        raise SpectrumFileError(f"spectrum file {label} is over {MAX_CSV_BYTES / 1e6:.0f} MB; "
+                                "refused")
+    return label, _decode(raw, label)
+
+
+def _data_rows(text: str, label: str) -> list[tuple[float, float, int]]:
+    """``(wavelength, value, line number)`` of each data line, at most MAX_CSV_ROWS."""
+    rows: list[tuple[float, float, int]] = []
+    for number, line in enumerate(_lines(text), start=1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        fields, sep = _split_fields(line)
+        if sep in (";", "\t"):
+            fields = [f.replace(",", ".") if f.count(",") == 1 and "." not in f else f
+                      for f in fields]
+        where = f"spectrum file {label}, line {number}"
+        if _parse_number(fields[0]) is None:
+            if not rows:
+                continue  # a header line
+            raise SpectrumFileError(f"{where}: {_shown(fields[0])} is not a wavelength (text "
+                                    "lines are only allowed before the data)")
+        if len(fields) != 2:
+            found = str(len(fields)) if len(fields) <= _MAX_SPLIT else f"over {_MAX_SPLIT}"
+            hint = ("; a decimal comma needs ';' or tab separators"
+                    if sep == "," and len(fields) in (3, 4) else "")
+            raise SpectrumFileError(f"{where}: expected two columns (wavelength nm, value), "
+                                    f"found {found}{hint}")
+        if len(rows) == MAX_CSV_ROWS:
+            raise SpectrumFileError(f"{where}: more than {MAX_CSV_ROWS:,} samples; a "
+                                    "spectrum needs far fewer")
+        wl = _number_or_raise(fields[0], f"{where}, wavelength", SpectrumFileError)
+        value = _number_or_raise(fields[1], f"{where}, value", SpectrumFileError)
+        rows.append((wl, value, number))
+    return rows
+
+
+def _check_csv_wavelengths(wl: np.ndarray, label: str) -> None:
+    if wl[0] <= 0:
+        raise SpectrumFileError(f"spectrum file {label}: wavelengths must be positive, "
+                                f"found {wl[0]:g}")
+    if wl[-1] < 10:
+        raise SpectrumFileError(f"spectrum file {label}: wavelengths {wl[0]:g}–{wl[-1]:g} look "
+                                "like micrometres; the first column must be in nanometres "
+                                "(multiply by 1000)")
+    if wl[-1] < TEXT_RANGE_NM[0] or wl[0] > TEXT_RANGE_NM[1]:
+        raise SpectrumFileError(f"spectrum file {label}: wavelengths {wl[0]:g}–{wl[-1]:g} nm "
+                                f"miss the visible range {TEXT_RANGE_NM[0]:g}–"
+                                f"{TEXT_RANGE_NM[1]:g} nm; the first column must be the "
+                                "wavelength in nm")
+    low, high = WAVELENGTH_LIMITS_NM
+    if wl[0] < low or wl[-1] > high:
+        raise SpectrumFileError(f"spectrum file {label}: wavelengths {wl[0]:g}–{wl[-1]:g} nm "
+                                f"reach outside {low:g}–{high:g} nm, where no optical "
+                                "measurement lies; check the first column and its unit")
 
 
 def read_spectrum_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
@@ -201,8 +337,9 @@ def read_spectrum_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     path
-        The file to read; at most :data:`MAX_CSV_BYTES` (10 MB). UTF-8 (with or without
-        BOM) or UTF-16 with BOM; other bytes are read as Latin-1.
+        The file to read; at most :data:`MAX_CSV_BYTES` (10 MB) and :data:`MAX_CSV_ROWS`
+        data lines. UTF-8 (with or without BOM) or UTF-16 with BOM; other bytes are read
+        as Latin-1.
 
     Returns
     -------
@@ -211,92 +348,37 @@ def read_spectrum_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
 
     Raises
     ------
-    ValueError
-        The file is missing, not a file, unreadable, larger than 10 MB or binary; a
-        data line does not have exactly two numeric fields, or holds NaN/inf; fewer than
-        two data lines; duplicate or non-monotonic wavelengths; wavelengths that look
-        like micrometres (all < 10), are not positive, or do not reach the visible
-        range 380–780 nm. Every message names the file, and the line where there is one.
+    SpectrumFileError
+        (a ``ValueError``) The file is missing, not a file, unreadable, larger than 10 MB
+        or binary; a data line does not have exactly two numeric fields, or holds NaN/inf
+        or a value beyond ±10³⁰; fewer than two or more than 100,000 data lines; duplicate
+        or non-monotonic wavelengths; wavelengths that look like micrometres (all < 10),
+        are not positive, do not reach the visible range 380–780 nm or reach outside
+        10 nm – 100 µm. Every message names the file, and the line where there is one.
     """
-    try:
-        path_str = os.fspath(path)
-    except TypeError as exc:
-        raise ValueError(f"spectrum file path must be a string or path, got "
-                         f"{type(path).__name__}") from exc
-    if not path_str:
-        raise ValueError("spectrum file path is empty")
-    label = repr(path_str)
-    if not os.path.exists(path_str):
-        raise ValueError(f"spectrum file {label} does not exist")
-    if not os.path.isfile(path_str):
-        raise ValueError(f"spectrum file {label} is not a regular file")
-    try:
-        size = os.path.getsize(path_str)
-        if size > MAX_CSV_BYTES:
-            raise ValueError(f"spectrum file {label} is {size / 1e6:.1f} MB; files over "
-                             f"{MAX_CSV_BYTES / 1e6:.0f} MB are refused")
-        with open(path_str, "rb") as handle:
-            raw = handle.read(MAX_CSV_BYTES + 1)
-    except OSError as exc:
-        raise ValueError(f"spectrum file {label} cannot be read: {exc.strerror or exc}") from exc
-    if len(raw) > MAX_CSV_BYTES:  # grew while we looked
-        raise ValueError(f"spectrum file {label} is over {MAX_CSV_BYTES / 1e6:.0f} MB; refused")
-    text = _decode(raw, path_str)
-
-    rows: list[tuple[float, float, int]] = []
-    for number, line in enumerate(text.splitlines(), start=1):
-        line = line.split("#", 1)[0].strip()
-        if not line:
-            continue
-        fields, sep = _split_fields(line)
-        if sep in (";", "\t"):
-            fields = [f.replace(",", ".") if f.count(",") == 1 and "." not in f else f
-                      for f in fields]
-        if _parse_number(fields[0]) is None:
-            if not rows:
-                continue  # a header line
-            raise ValueError(f"spectrum file {label}, line {number}: {fields[0]!r} is not "
-                             "a wavelength (text lines are only allowed before the data)")
-        if len(fields) != 2:
-            hint = ("; a decimal comma needs ';' or tab separators"
-                    if sep == "," and len(fields) in (3, 4) else "")
-            raise ValueError(f"spectrum file {label}, line {number}: expected two columns "
-                             f"(wavelength nm, value), found {len(fields)}{hint}")
-        where = f"spectrum file {label}, line {number}"
-        wl = _number_or_raise(fields[0], f"{where}, wavelength")
-        value = _number_or_raise(fields[1], f"{where}, value")
-        rows.append((wl, value, number))
-
+    label, text = _open_text(path)
+    rows = _data_rows(text, label)
+    del text
     if len(rows) < 2:
-        raise ValueError(f"spectrum file {label} has {len(rows)} data line(s); a spectrum "
-                         "needs at least two (wavelength nm, value) lines")
+        raise SpectrumFileError(f"spectrum file {label} has {len(rows)} data line(s); a "
+                                "spectrum needs at least two (wavelength nm, value) lines")
     wl = np.array([r[0] for r in rows])
     values = np.array([r[1] for r in rows])
     lines = [r[2] for r in rows]
     step = np.diff(wl)
     if np.any(step == 0):
         i = int(np.flatnonzero(step == 0)[0])
-        raise ValueError(f"spectrum file {label}: wavelength {wl[i]:g} nm appears twice "
-                         f"(lines {lines[i]} and {lines[i + 1]})")
+        raise SpectrumFileError(f"spectrum file {label}: wavelength {wl[i]:g} nm appears twice "
+                                f"(lines {lines[i]} and {lines[i + 1]})")
     if np.all(step < 0):
         wl, values = wl[::-1].copy(), values[::-1].copy()
     elif np.any(step < 0):
         direction = np.sign(step[0])
         i = int(np.flatnonzero(np.sign(step) != direction)[0])
-        raise ValueError(f"spectrum file {label}, line {lines[i + 1]}: wavelength "
-                         f"{wl[i + 1]:g} nm after {wl[i]:g} nm; wavelengths must be "
-                         "monotonic")
-    if wl[0] <= 0:
-        raise ValueError(f"spectrum file {label}: wavelengths must be positive, "
-                         f"found {wl[0]:g}")
-    if wl[-1] < 10:
-        raise ValueError(f"spectrum file {label}: wavelengths {wl[0]:g}–{wl[-1]:g} look like "
-                         "micrometres; the first column must be in nanometres "
-                         "(multiply by 1000)")
-    if wl[-1] < TEXT_RANGE_NM[0] or wl[0] > TEXT_RANGE_NM[1]:
-        raise ValueError(f"spectrum file {label}: wavelengths {wl[0]:g}–{wl[-1]:g} nm miss "
-                         f"the visible range {TEXT_RANGE_NM[0]:g}–{TEXT_RANGE_NM[1]:g} nm; "
-                         "the first column must be the wavelength in nm")
+        raise SpectrumFileError(f"spectrum file {label}, line {lines[i + 1]}: wavelength "
+                                f"{wl[i + 1]:g} nm after {wl[i]:g} nm; wavelengths must be "
+                                "monotonic")
+    _check_csv_wavelengths(wl, label)
     return wl, values
 
 

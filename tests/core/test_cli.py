@@ -151,11 +151,18 @@ def test_parse_spectrum(tmp_path):
     assert wl.tolist() == [400.0, 550.0, 700.0] and values.tolist() == [0.1, 0.5, 0.9]
     csv.write_text("400 0.1\n550 0.5\n")
     assert cli.parse_spectrum(f"csv:{csv}")[0].tolist() == [400.0, 550.0]
-    for text, content in (("400,0.1\nabc,1\n", "line 2"), ("400,0.1\n", "two rows"),
-                          ("500,0.1\n400,0.2\n", "increasing")):
+    # The add-on's reader: a file in decreasing order is reversed, not refused.
+    csv.write_text("700,0.9\n550,0.5\n")
+    assert cli.parse_spectrum(f"csv:{csv}")[0].tolist() == [550.0, 700.0]
+    for text, content in (("400,0.1\nabc,1\n", "line 2"), ("400,0.1\n", "at least two"),
+                          ("400,0.1\n500,0.2\n450,0.3\n", "monotonic"),
+                          ("400,0.1\n500,1e300\n", "line 2, value: '1e300' is beyond"),
+                          ("400,0.1\n1e9,0.2\n", "outside 10–100000 nm"),
+                          ("400,nan\n500,0.2\n", "not finite")):
         csv.write_text(text)
-        with pytest.raises(cli.UsageError, match=content):
+        with pytest.raises(cli.UsageError, match=content) as info:
             cli.parse_spectrum(f"csv:{csv}")
+        assert str(csv) in str(info.value)
     with pytest.raises(cli.UsageError):
         cli.parse_spectrum("nan")
 

@@ -404,3 +404,73 @@ def test_fuzz(tmp_path):
                 wi, wo = _random_pairs(20)
                 assert np.isfinite(b(wi, wo, WL)).all()
     assert outcomes["ok"] > 20 and outcomes["invalid"] > 100
+
+
+@pytest.mark.parametrize("stored", [1e308, -1e308, 1e40, -5e33, 2e33])
+@pytest.mark.parametrize("on_invalid", ["raise", "clamp"])
+def test_extreme_samples_refused(tmp_path, stored, on_invalid):
+    """Finite samples beyond ±1e30 sr⁻¹ once scaled (sample_limits) are refused at the
+    reader, negative or not, naming the file, the channel and the cell."""
+    path = tmp_path / "big.binary"
+    _small_file(path)
+    raw = bytearray(path.read_bytes())
+    at = 12 + 8 * int(np.ravel_multi_index((2, 1, 4), SMALL))  # channel R, as stored
+    raw[at : at + 8] = np.float64(stored).tobytes()  # the writer would turn −x into −1
+    path.write_bytes(bytes(raw))
+    with pytest.raises(InvalidBRDFData, match=r"1 samples of channel R lie beyond ±1e\+30") \
+            as info:
+        merl._read_merl(path, shape=SMALL, on_invalid=on_invalid)
+    assert str(path) in str(info.value) and "θh[2]" in str(info.value)
+
+
+def test_samples_up_to_the_limit_read(tmp_path):
+    table = _small_file(tmp_path / "ok.binary")
+    table[1, 1, 1, 2] = 0.9e30
+    path = merl._write_merl(tmp_path / "edge.binary", table, SMALL, allow_invalid=False)
+    b = merl._read_merl(path, shape=SMALL)
+    assert b.table[1, 1, 1, 2] == np.float32(0.9e30)
+
+
+def test_fuzz_header_doubles_and_truncation(tmp_path):
+    """300 seeded mutations: header dimensions (larger than the body, negative, swapped),
+    truncation, random bytes, and whole doubles replaced by extreme, non-finite or
+    subnormal values. Every failure is InvalidBRDFData naming the file; what loads holds
+    finite samples within ±1e30 and evaluates finitely."""
+    good = tmp_path / "good.binary"
+    _small_file(good, seed=7)
+    data = good.read_bytes()
+    doubles = (len(data) - 12) // 8
+    specials = [np.float64(v).tobytes() for v in (1e308, -1e308, 1e31, 5e-324, np.nan,
+                                                    -np.inf, -1.0, 0.0)]
+    rng = np.random.default_rng(77)
+    wi, wo = _random_pairs(10, seed=5)
+    path = tmp_path / "fuzz.binary"
+    outcomes = {"ok": 0, "invalid": 0}
+    for case in range(300):
+        raw = bytearray(data)
+        kind = case % 4
+        if kind == 0:
+            raw = raw[: int(rng.integers(0, len(raw) + 1))]
+        elif kind == 1:
+            dims = [int(d) for d in SMALL]
+            dims[int(rng.integers(0, 3))] = int(rng.integers(-(2**31), 2**31))
+            raw[:12] = np.asarray(dims if rng.random() < 0.8 else dims[::-1], "<i4").tobytes()
+        elif kind == 2:
+            for _ in range(int(rng.integers(1, 8))):
+                raw[int(rng.integers(0, len(raw)))] = int(rng.integers(0, 256))
+        else:
+            for _ in range(int(rng.integers(1, 4))):
+                at = 12 + 8 * int(rng.integers(0, doubles))
+                raw[at : at + 8] = specials[int(rng.integers(0, len(specials)))]
+        path.write_bytes(bytes(raw))
+        try:
+            b = merl._read_merl(path, shape=SMALL, on_invalid="clamp" if case % 2 else "raise")
+        except InvalidBRDFData as exc:
+            assert str(path) in str(exc), exc
+            outcomes["invalid"] += 1
+            continue
+        assert np.isfinite(b.table).all() and np.abs(b.table).max() <= 1e30
+        assert np.isfinite(b(wi, wo, WL)).all()
+        outcomes["ok"] += 1
+    print("fuzz outcomes:", outcomes)
+    assert outcomes["ok"] > 30 and outcomes["invalid"] > 150, outcomes

@@ -481,3 +481,240 @@ def test_fuzz_mutations_and_truncations(tmp_path):
     assert sum(outcomes.values()) == 200
     assert outcomes["invalid"] > 50
     print("fuzz outcomes:", outcomes)
+
+
+# --------------------------------------------------------------------------- layout and limits
+
+
+def _patch(raw: bytes, name: str, *, offset: int | None = None) -> bytes:
+    """``raw`` with field ``name``'s data offset replaced."""
+    data = bytearray(raw)
+    pos = _field_entry_pos(raw, name)
+    if offset is not None:
+        data[pos + 3 : pos + 11] = struct.pack("<Q", offset)
+    return bytes(data)
+
+
+def _offset_of(raw: bytes, name: str) -> int:
+    return struct.unpack_from("<Q", raw, _field_entry_pos(raw, name) + 3)[0]
+
+
+def test_overlapping_fields_refused(tmp_path):
+    """Fields sharing bytes (or lying in the table) would let a small file declare many
+    times its size: the layout is checked before any data are read."""
+    path, _ = _write(tmp_path)
+    raw = path.read_bytes()
+    bad = tmp_path / "bad.bsdf"
+    bad.write_bytes(_patch(raw, "sigma", offset=_offset_of(raw, "ndf")))
+    _expect_invalid(bad, "'(ndf|sigma)'.*overlaps field '(ndf|sigma)'")
+    bad.write_bytes(_patch(raw, "ndf", offset=_offset_of(raw, "ndf") + 4))  # into sigma
+    _expect_invalid(bad, "overlaps")
+    bad.write_bytes(_patch(raw, "jacobian", offset=8))
+    _expect_invalid(bad, "'jacobian'.*overlaps the field table")
+    with pytest.raises(InvalidBRDFData, match="overlaps"):
+        rgl_bsdf.read_tensor_file(bad)
+
+
+def test_empty_fields_may_point_anywhere(tmp_path):
+    """An empty field reads nothing; Mitsuba's writer can align it past the end."""
+    fields = _fields()
+    fields["notes"] = np.zeros((0,), np.float32)
+    path, _ = _write(tmp_path, fields=fields)
+    raw = path.read_bytes()
+    path.write_bytes(_patch(raw, "notes", offset=len(raw) + 8))
+    back = rgl_bsdf.read_tensor_file(path)
+    assert back["notes"].shape == (0,)
+    assert rgl_bsdf.read_rgl_bsdf(path).describe()["kind"] == "spectral"
+
+
+def test_too_many_fields_refused(tmp_path):
+    path, _ = _write(tmp_path)
+    raw = bytearray(path.read_bytes())
+    raw[14:18] = struct.pack("<I", rgl_bsdf.MAX_FIELDS + 1)
+    raw += b"\0" * (13 * (rgl_bsdf.MAX_FIELDS + 1))  # enough bytes for the table check
+    bad = tmp_path / "many.bsdf"
+    bad.write_bytes(bytes(raw))
+    _expect_invalid(bad, f"{rgl_bsdf.MAX_FIELDS + 1:,} fields declared; at most")
+
+
+def test_long_description_refused(tmp_path):
+    fields = _fields()
+    fields["description"] = np.full(rgl_bsdf.MAX_DESCRIPTION_BYTES + 1, ord("a"), np.uint8)
+    _expect_invalid(_write(tmp_path, fields=fields)[0], "'description' holds 1,048,577 bytes")
+    fields["description"] = np.full(rgl_bsdf.MAX_DESCRIPTION_BYTES, 0xFF, np.uint8)
+    b = rgl_bsdf.read_rgl_bsdf(_write(tmp_path, "ok.bsdf", fields=fields)[0])
+    assert b.description == "\ufffd" * rgl_bsdf.MAX_DESCRIPTION_BYTES
+
+
+@pytest.mark.parametrize("name", ["spectra", "luminance", "vndf", "ndf", "sigma"])
+@pytest.mark.parametrize("value", [3e38, -3e38, 1.5e30])
+@pytest.mark.parametrize("on_invalid", ["raise", "clamp"])
+def test_extreme_samples_refused(tmp_path, name, value, on_invalid):
+    """Finite values no measurement gives (beyond ±1e30, sample_limits) are refused at the
+    reader, naming the file and the field, whatever on_invalid says."""
+    fields = _fields()
+    fields[name].flat[3] = value
+    path, _ = _write(tmp_path, fields=fields)
+    err = _expect_invalid(path, f"field '{name}' holds 1 values beyond ±1e\\+30",
+                          on_invalid=on_invalid)
+    assert f"{np.float32(value):g}" in str(err)
+
+
+def test_extreme_rgb_refused_and_limit_itself_accepted(tmp_path):
+    fields = _fields(rgb=True)
+    fields["rgb"].flat[0] = 2e30
+    _expect_invalid(_write(tmp_path, "a.bsdf", fields=fields)[0], "'rgb' holds 1 values")
+    fields = _fields()
+    fields["spectra"].flat[0] = 1e29
+    b = rgl_bsdf.read_rgl_bsdf(_write(tmp_path, "b.bsdf", fields=fields)[0])
+    assert b.values.flat[0] == np.float32(1e29)
+
+
+def test_float64_samples_of_1e308_refused(tmp_path):
+    """The format's tables are float32: a float64 table (the only way to hold 1e308) is
+    refused by its dtype before its values are looked at."""
+    fields = _fields()
+    fields["spectra"] = fields["spectra"].astype(np.float64)
+    fields["spectra"].flat[0] = 1e308
+    _expect_invalid(_write(tmp_path, fields=fields)[0], "'spectra' has dtype float64")
+
+
+@pytest.mark.parametrize("wl, match", [
+    ((5.0, 500.0, 600.0, 700.0), "wavelengths runs from 5 to 700 nm, outside 10..100000 nm"),
+    ((400.0, 500.0, 600.0, 2e5), "outside 10..100000 nm"),
+    ((-400.0, 500.0, 600.0, 700.0), "outside 10..100000 nm"),
+    ((0.0, 500.0, 600.0, 700.0), "outside"),
+    ((400.0, 500.0, 600.0, 3e38), "outside"),
+    ((400.0, np.nan, 600.0, 700.0), "wavelengths holds NaN/inf"),
+    ((400.0, 500.0, 600.0, np.inf), "wavelengths holds NaN/inf"),
+])
+def test_implausible_wavelengths_refused(tmp_path, wl, match):
+    fields = _fields()
+    fields["wavelengths"] = np.asarray(wl, F32)
+    _expect_invalid(_write(tmp_path, fields=fields)[0], match)
+
+
+@pytest.mark.parametrize("axis, values, match", [
+    ("theta_i", (-0.1, 0.2, 0.4, 0.6), "theta_i runs from -0.1"),
+    ("theta_i", (0.0, 0.5, 1.0, 1.6), "outside -0.0001..1.5709"),
+    ("theta_i", (0.0, 0.5, 1.0, 3e38), "theta_i runs"),
+    ("phi_i", (-7.0, -3.0, -1.0, 0.0, 1.0), "phi_i runs from -7"),
+    ("phi_i", (0.0, 1.0, 2.0, 3.0, np.inf), "phi_i holds NaN/inf"),
+])
+def test_implausible_angles_refused(tmp_path, axis, values, match):
+    fields = _fields()
+    fields[axis] = np.asarray(values, F32)
+    _expect_invalid(_write(tmp_path, fields=fields)[0], match)
+
+
+def test_warp_matches_float64_marginal2d(tmp_path):
+    """The float32 cumulative table (marginal in the conditional's free column, the
+    normalisation on the corner weights) inverts as Marginal2D built in float64."""
+    rng = np.random.default_rng(31)
+    vndf = rng.uniform(0.05, 3.0, (3, 2, 7, 9))
+    warp = rgl_bsdf._Warp.build(vndf)
+    # Marginal2D<2>::build_cdf in float64, normalised (the previous implementation)
+    cond = np.zeros_like(vndf)
+    cond[..., 1:] = np.cumsum(0.5 * (vndf[..., 1:] + vndf[..., :-1]), axis=-1)
+    rows = cond[..., -1]
+    marg = np.zeros(vndf.shape[:-1])
+    marg[..., 1:] = np.cumsum(0.5 * (rows[..., 1:] + rows[..., :-1]), axis=-1)
+    np.testing.assert_allclose(warp.totals, marg[..., -1], rtol=1e-6)
+    np.testing.assert_allclose(warp.cumulative[..., 1:], cond[..., 1:], rtol=1e-6)
+    np.testing.assert_allclose(warp.cumulative[..., 0], marg, rtol=1e-6, atol=1e-12)
+    u = rng.uniform(0, 1, (500, 2))
+    a = rng.integers(0, 3, 500)
+    b = rng.integers(0, 2, 500)
+    corners = [(a, b, np.ones(500))]
+    norm = 1.0 / marg[..., -1]
+    ny, nx = vndf.shape[2:]
+    ix, fx = rgl_bsdf._cell(u[:, 0], nx)
+    iy, fy = rgl_bsdf._cell(u[:, 1], ny)
+    d = vndf[a, b] * norm[a, b][:, None, None]
+    c = cond[a, b] * norm[a, b][:, None, None]
+    m = marg[a, b] * norm[a, b][:, None]
+    k = np.arange(500)
+    c0 = (1 - fy) * d[k, iy, ix] + fy * d[k, iy + 1, ix]
+    c1 = (1 - fy) * d[k, iy, ix + 1] + fy * d[k, iy + 1, ix + 1]
+    x = fx * (c0 + 0.5 * fx * (c1 - c0)) + (1 - fy) * c[k, iy, ix] + fy * c[k, iy + 1, ix]
+    r0, r1 = c[k, iy, nx - 1], c[k, iy + 1, nx - 1]
+    x /= (1 - fy) * r0 + fy * r1
+    y = fy * (r0 + 0.5 * fy * (r1 - r0)) + m[k, iy]
+    np.testing.assert_allclose(warp.invert(u, corners), np.stack([x, y], -1), atol=2e-6)
+
+
+@pytest.mark.parametrize("shape, block", [((5, 7), 1), ((5, 7), 3), ((4, 9), 4), ((3, 1), 2),
+                                          ((6, 50), 10_000)])
+def test_cumulative_trapezoid_blocks(shape, block):
+    """Blocked sums (rows and columns split, running sums carried) equal one cumsum."""
+    src = np.random.default_rng(2).uniform(0, 2, shape)
+    out = np.empty(shape)
+    rgl_bsdf._cumulative_trapezoid(src, out, block)
+    steps = np.cumsum(0.5 * (src[:, 1:] + src[:, :-1]), axis=1)
+    np.testing.assert_allclose(out, np.concatenate([np.zeros((shape[0], 1)), steps], 1),
+                               rtol=1e-14, atol=1e-14)
+
+
+def _table_slots(raw: bytes, names) -> list[tuple[int, int]]:
+    """(position, ndim) of each field's ndim in the table."""
+    out = []
+    for name in names:
+        pos = _field_entry_pos(raw, name)
+        out.append((pos, struct.unpack_from("<H", raw, pos)[0]))
+    return out
+
+
+def test_fuzz_table_and_values(tmp_path):
+    """400 seeded mutations aimed at what the reader must bound: offsets (overlap, past
+    the end), shapes, the field count, truncation, and extreme or non-finite float32
+    samples. Every failure is InvalidBRDFData naming the file; nothing else escapes, and
+    what loads evaluates finitely."""
+    fields = _fields(npi=3, nti=2, n=3, nv=(3, 4), nn=(3, 3), seed=21)
+    path, _ = _write(tmp_path, fields=fields)
+    raw = path.read_bytes()
+    slots = _table_slots(raw, fields)
+    data_start = min(_offset_of(raw, name) for name in fields)
+    rng = np.random.default_rng(4321)
+    wi, wo = _hemi(rng, 8), _hemi(rng, 8)
+    specials = [np.float32(v).tobytes() for v in (3e38, -3e38, 2e30, np.nan, np.inf, -1.0)]
+    bad = tmp_path / "fuzz.bsdf"
+    outcomes = {"ok": 0, "invalid": 0}
+    for case in range(400):
+        data = bytearray(raw)
+        kind = case % 5
+        if kind == 0:  # truncation
+            data = data[: int(rng.integers(0, len(raw)))]
+        elif kind == 1:  # an offset moved: onto another field, into the table, past the end
+            pos, _ = slots[int(rng.integers(0, len(slots)))]
+            target = int(rng.choice([_offset_of(raw, str(rng.choice(list(fields)))),
+                                     int(rng.integers(0, len(raw) + 64))]))
+            data[pos + 3 : pos + 11] = struct.pack("<Q", target)
+        elif kind == 2:  # a dimension rewritten
+            pos, ndim = slots[int(rng.integers(0, len(slots)))]
+            if ndim:
+                at = pos + 11 + 8 * int(rng.integers(0, ndim))
+                dims = [0, 1, 2, 7, len(raw), 1 << 33, (1 << 64) - 1]
+                dim = dims[int(rng.integers(0, len(dims)))]
+                data[at : at + 8] = struct.pack("<Q", dim)
+        elif kind == 3:  # extreme or non-finite samples in the data
+            for _ in range(int(rng.integers(1, 4))):
+                at = data_start + 4 * int(rng.integers(0, (len(raw) - data_start) // 4))
+                data[at : at + 4] = specials[int(rng.integers(0, len(specials)))]
+        else:  # the field count, or random bytes anywhere
+            if rng.random() < 0.3:
+                data[14:18] = struct.pack("<I", int(rng.integers(0, 1 << 32)))
+            for _ in range(int(rng.integers(1, 6))):
+                data[int(rng.integers(0, len(data)))] = int(rng.integers(0, 256))
+        bad.write_bytes(bytes(data))
+        try:
+            b = rgl_bsdf.read_rgl_bsdf(bad, on_invalid="clamp" if case % 2 else "raise")
+        except InvalidBRDFData as exc:
+            assert str(bad) in str(exc), exc
+            outcomes["invalid"] += 1
+            continue
+        for table in (b.values, b.ndf, b.sigma, b.vndf, b.luminance):
+            assert np.abs(table).max() <= 1e30
+        assert np.isfinite(b(wi, wo, np.asarray(WL_FILE))).all()
+        outcomes["ok"] += 1
+    print("fuzz outcomes:", outcomes)
+    assert outcomes["invalid"] > 150 and outcomes["ok"] > 20, outcomes

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import builtins
 import os
+import time
 
 import colour
 import numpy as np
@@ -17,6 +18,8 @@ import pytest
 from spectral_materials.core import spectra
 from spectral_materials.core.spectrum_library import (
     MAX_CSV_BYTES,
+    MAX_CSV_ROWS,
+    SpectrumFileError,
     blackbody_spd,
     check_reflectance,
     check_spd,
@@ -197,6 +200,29 @@ class TestParseSpectrumText:
         assert ok > 0  # the generator does reach the success path
 
 
+    @pytest.mark.parametrize("text, match", [
+        ("0.5 1e308 0.2", r"token 2 '1e308' at character 5: '1e308' is beyond ±1e\+30"),
+        ("400:0.5, 500:-2e30", r"token 2 .*, value: '-2e30' is beyond"),
+        ("1.0000001e30", "beyond"),
+    ])
+    def test_extreme_values_refused(self, text, match):
+        with pytest.raises(ValueError, match=match):
+            parse_spectrum_text(text)
+
+    def test_values_up_to_the_limit(self):
+        np.testing.assert_array_equal(parse_spectrum_text("1e30 -1e30")[1], [1e30, -1e30])
+
+    def test_long_digit_run_is_fast_and_quoted_short(self):
+        """A number pattern that could split a run of digits two ways backtracked
+        quadratically on one that is not a number (minutes for 100,000 digits)."""
+        token = "9" * 200_000 + "x"
+        start = time.perf_counter()
+        with pytest.raises(ValueError, match=r"is not a number") as info:
+            parse_spectrum_text("0.5 " + token)
+        assert time.perf_counter() - start < 1.0
+        assert len(str(info.value)) < 300 and "200,001 characters" in str(info.value)
+
+
 class TestReadSpectrumCsv:
     def test_comma_with_header_and_comments(self, tmp_path):
         path = write(tmp_path, "# measured 2024\nwavelength_nm,reflectance\n"
@@ -369,6 +395,96 @@ class TestReadSpectrumCsv:
             assert_valid_spectrum(wl_read, values)
             assert wl_read.size >= 2
         assert min(outcomes.values()) > 100  # both paths are exercised
+
+
+    def test_errors_are_spectrum_file_errors(self, tmp_path):
+        assert issubclass(SpectrumFileError, ValueError)
+        for text in ("400,1\n", "400,x\n500,1\n500,2\n", "400,1\n450,nan\n"):
+            path = write(tmp_path, text)
+            with pytest.raises(SpectrumFileError) as info:
+                read_spectrum_csv(path)
+            assert str(path) in str(info.value)
+
+    @pytest.mark.parametrize("text, match", [
+        ("400,0.1\n500,1e308\n", r"line 2, value: '1e308' is beyond ±1e\+30"),
+        ("400,-1e31\n500,0.2\n", r"line 1, value: '-1e31' is beyond"),
+        ("400;0,1\n500;2e300\n", r"line 2, value: '2e300' is beyond"),
+        ("400,0.1\n1e308,0.2\n", r"line 2, wavelength: '1e308' is beyond"),
+        ("400,0.1\n2e5,0.2\n", r"400–200000 nm reach outside 10–100000 nm"),
+        ("5,0.1\n500,0.2\n", r"5–500 nm reach outside 10–100000 nm"),
+    ])
+    def test_extreme_values_and_wavelengths_refused(self, tmp_path, text, match):
+        path = write(tmp_path, text)
+        with pytest.raises(SpectrumFileError, match=match) as info:
+            read_spectrum_csv(path)
+        assert str(path) in str(info.value)
+
+    def test_values_and_wavelengths_at_the_limits(self, tmp_path):
+        wl, values = read_spectrum_csv(write(tmp_path, "10,1e30\n500,-1e30\n1e5,0\n"))
+        np.testing.assert_array_equal(wl, [10.0, 500.0, 1e5])
+        np.testing.assert_array_equal(values, [1e30, -1e30, 0.0])
+
+    def test_too_many_rows(self, tmp_path):
+        rows = [f"{400 + i * 1e-3:.3f},1\n" for i in range(MAX_CSV_ROWS + 1)]
+        path = write(tmp_path, "".join(rows))
+        with pytest.raises(SpectrumFileError, match=rf"line {MAX_CSV_ROWS + 1}: more than "
+                                                    r"100,000 samples"):
+            read_spectrum_csv(path)
+        # a header line, then exactly MAX_CSV_ROWS samples: read
+        path = write(tmp_path, "wl,v\n" + "".join(rows[:-1]), "most.csv")
+        assert read_spectrum_csv(path)[0].size == MAX_CSV_ROWS
+
+    def test_many_fields_on_one_line(self, tmp_path):
+        with pytest.raises(SpectrumFileError, match=r"line 1: .* found over 8$"):
+            read_spectrum_csv(write(tmp_path, "400" + ",1" * 100_000 + "\n500,1\n"))
+        text = "400,0.5" + "," * 50 + "\n500;0,6;;;;;;;;;\n"
+        np.testing.assert_array_equal(read_spectrum_csv(write(tmp_path, text))[1], [0.5, 0.6])
+        with pytest.raises(SpectrumFileError, match="found over 8"):
+            read_spectrum_csv(write(tmp_path, "400 1 2 3 4 5 6 7 8\n500 1\n"))
+
+    def test_long_token_is_fast_and_quoted_short(self, tmp_path):
+        path = write(tmp_path, "400,0.5\n500," + "9" * 200_000 + "x\n")
+        start = time.perf_counter()
+        with pytest.raises(SpectrumFileError, match="line 2, value: '9999") as info:
+            read_spectrum_csv(path)
+        assert time.perf_counter() - start < 1.0 and len(str(info.value)) < 400
+
+    @pytest.mark.parametrize("brk", ["\r\n", "\r", "\v", "\f", "\x1c", "\x85", "\u2028"])
+    def test_line_breaks_as_splitlines(self, tmp_path, brk):
+        text = f"wl,v{brk}400,0.1{brk}# note{brk}{brk}500,0.2{brk}x"
+        path = write(tmp_path, text, encoding="utf-16")
+        with pytest.raises(SpectrumFileError, match="line 6: 'x' is not a wavelength"):
+            read_spectrum_csv(path)
+        path = write(tmp_path, text[: -len(brk) - 1], "ok.csv", encoding="utf-16")
+        np.testing.assert_array_equal(read_spectrum_csv(path)[1], [0.1, 0.2])
+
+    def test_fuzz_errors_name_the_file(self, tmp_path):
+        """Mutated files, extreme numbers among the damage: a valid spectrum within the
+        limits, or a SpectrumFileError naming the file; nothing else."""
+        rng = np.random.default_rng(8)
+        junk = ["1e308", "-1e31", "1e30", "3e38", "1e400", "nan", "5", "2e5", "9" * 500 + "x",
+                ",,,,,,,,,,,", "0,5", "\x85", "\u2028", "#", "x"]
+        path = tmp_path / "fuzz.csv"
+        outcomes = {"ok": 0, "error": 0}
+        for _ in range(600):
+            wl = np.sort(rng.choice(np.arange(380, 781), size=int(rng.integers(2, 10)),
+                                    replace=False))
+            sep = str(rng.choice([",", ";", "\t", " "]))
+            cells = [[f"{w}", f"{rng.uniform(0, 1):.3f}"] for w in wl]
+            for _ in range(int(rng.integers(0, 3))):
+                row = cells[int(rng.integers(0, len(cells)))]
+                row[int(rng.integers(0, 2))] = str(rng.choice(junk))
+            path.write_bytes("\n".join(sep.join(c) for c in cells).encode("utf-8"))
+            try:
+                wl_read, values = read_spectrum_csv(path)
+            except SpectrumFileError as exc:
+                assert str(path) in str(exc)
+                outcomes["error"] += 1
+                continue
+            outcomes["ok"] += 1
+            assert_valid_spectrum(wl_read, values)
+            assert np.abs(values).max() <= 1e30 and 10 <= wl_read[0] and wl_read[-1] <= 1e5
+        assert min(outcomes.values()) > 100, outcomes
 
 
 class TestBlackbody:

@@ -40,7 +40,11 @@ allocates anything, then reads the three channels; damage becomes
 (the −1 markers) are part of the format: they are counted in
 ``defects["negative"]`` (``defects["below_horizon_marker"]`` those exactly −1)
 and set to 0. NaN/inf samples raise by default; ``on_invalid="clamp"`` sets them
-to 0 and counts them. A file with no valid sample at all is refused either way.
+to 0 and counts them. A file with no valid sample at all is refused either way, and
+so is one with a finite sample beyond ±10³⁰ sr⁻¹ once scaled, negative or not (no
+measurement or marker looks like that, and later arithmetic would overflow; see
+:mod:`spectral_materials.core.sample_limits`). The body is read one channel at a
+time: reading costs about the file's size once more.
 
 Spectral uplift
 ---------------
@@ -85,6 +89,7 @@ import numpy as np
 from .. import spectra
 from ..errors import InvalidBRDFData
 from ..params import PARAMETERIZATIONS, _hd_forward
+from ..sample_limits import MAX_SAMPLE, extreme_mask
 from ._files import atomic_write, read_errors
 
 __all__ = [
@@ -446,6 +451,18 @@ def _describe_cell(flat_index: int, channel: int, shape) -> str:
             f"φd[{k}]={math.degrees(pd):.2f}°, channel {'RGB'[channel]}")
 
 
+def _refuse_extreme(values: np.ndarray, channel: int, shape) -> None:
+    """Refuse samples (BRDF, sr⁻¹) beyond ±MAX_SAMPLE, negative ones included: neither a
+    measurement nor the below-horizon marker looks like that (see
+    :mod:`spectral_materials.core.sample_limits`)."""
+    big = extreme_mask(values)
+    if big.any():
+        first = int(np.argmax(big))
+        raise _Invalid(f"{int(big.sum()):,} samples of channel {'RGB'[channel]} lie beyond "
+                       f"±{MAX_SAMPLE:g} sr⁻¹ (the first, {values[first]:g}, at "
+                       f"{_describe_cell(first, channel, shape)}); not a plausible measurement")
+
+
 def _read_body(path: Path, shape: tuple[int, int, int], on_invalid: str
                ) -> tuple[np.ndarray, dict]:
     n = math.prod(shape)
@@ -472,13 +489,8 @@ def _read_body(path: Path, shape: tuple[int, int, int], on_invalid: str
             bad = nonfinite | neg
             bad_cells |= bad
             values = raw * scale
+            _refuse_extreme(values, c, shape)
             values[bad] = 0.0
-            # Finite float64 beyond float32's range would become inf.
-            big = np.abs(values) > np.finfo(np.float32).max
-            if big.any():
-                where = _describe_cell(int(np.argmax(big)), c, shape)
-                raise _Invalid(f"{int(big.sum())} samples of channel {'RGB'[c]} exceed the "
-                               f"float32 range (first at {where})")
             table[:, c] = values
     defects: dict = dict(counts)
     defects["invalid_cells"] = int(bad_cells.sum())
@@ -553,9 +565,9 @@ def read_merl(path, *, uplift="smits1999", on_invalid: str = "raise",
     ------
     InvalidBRDFData
         (a ``ValueError``) for a wrong header (dimensions other than 90, 90, 180),
-        a wrong size (truncated or trailing bytes), non-finite samples (unless
-        clamped), or a file without a single valid sample; the message names the
-        file.
+        a wrong size (truncated or trailing bytes; checked before anything is
+        allocated), non-finite samples (unless clamped), samples beyond ±10³⁰ sr⁻¹,
+        or a file without a single valid sample; the message names the file.
     OSError
         If the file cannot be opened at all (missing, a directory, no permission).
     """

@@ -7,9 +7,14 @@ uint32 field count, then per field: uint16 name length, the name, uint16 ``ndim`
 dtype code (1 u8, 2 i8, 3 u16, 4 i16, 5 u32, 6 i32, 7 u64, 8 i64, 9 f16, 10 f32, 11 f64),
 uint64 absolute offset of the data, ``ndim`` × uint64 shape. Data are C-ordered.
 (rgl-epfl/brdf-loader ``powitacq.inl`` ``Tensor::Tensor``, lines 722–795; Mitsuba 3
-``src/core/tensor.cpp``.) :func:`read_tensor_file` checks the magic, the version, every
-dtype code, and that every field's offset + size lies inside the file and that all fields
-together stay below ``max_bytes`` *before* it reads (or allocates) any data.
+``src/core/tensor.cpp``.) The writers (Mitsuba 3 ``tensor_io.write``, :func:`write_tensor_file`)
+put the table first, then each field's data in turn, aligned, one after another.
+
+:func:`read_tensor_file` checks, *before* it reads (or allocates) any data: the magic, the
+version, at most :data:`MAX_FIELDS` fields, every dtype code, that every field's offset +
+size lies inside the file, that no two fields' data overlap and none overlaps the table
+(so all fields together hold at most the file's bytes, and reading them costs no more
+memory than the file's size), and that they stay below ``max_bytes``.
 
 Material fields
 ---------------
@@ -72,6 +77,19 @@ and counted (``"clamp"``). Negative samples are counted; in the densities (``ndf
 ``sigma``, ``vndf``, ``luminance``) they are set to 0, in ``spectra``/``rgb`` they are
 kept as the reference keeps them. Where σ(u_wi) is 0 the value is 0. A file whose
 spectra are all zero is refused.
+
+Values no measurement produces are refused whatever ``on_invalid`` says
+(:mod:`spectral_materials.core.sample_limits`): a sample of magnitude above 10³⁰ in any of
+the float tables, wavelengths outside 10 nm – 100 µm, ``theta_i`` outside [0, π/2] or
+``phi_i`` outside [−2π, 2π] (both with 10⁻⁴ rad for float32 rounding), and a
+``description`` longer than :data:`MAX_DESCRIPTION_BYTES`.
+
+Memory
+------
+Fields are read straight into their arrays and cleaned in place; the tables derived from
+them (the vndf warp's cumulative sums, one float32 per vndf sample: the marginal CDF shares
+the conditional CDF's first column, which is always 0) are built in blocks of
+:data:`CHUNK_ELEMENTS`. Reading a file so costs at most about twice its size.
 """
 
 from __future__ import annotations
@@ -87,12 +105,15 @@ import numpy as np
 from .. import spectra as _spectra
 from ..errors import InvalidBRDFData
 from ..params import check_direction_pairs
+from ..sample_limits import WAVELENGTH_LIMITS_NM, describe_extreme
 from ._files import atomic_write, read_errors
 from .merl import SmitsUplift
 
 __all__ = [
     "DTYPE_CODES",
     "MAGIC",
+    "MAX_DESCRIPTION_BYTES",
+    "MAX_FIELDS",
     "MAX_TENSOR_BYTES",
     "RGLBSDF",
     "read_rgl_bsdf",
@@ -115,15 +136,27 @@ _CODE_NAMES = {1: "u8", 2: "i8", 3: "u16", 4: "i16", 5: "u32", 6: "i32", 7: "u64
 MAX_TENSOR_BYTES = 4 << 30
 #: Largest ``ndim`` accepted for one field.
 MAX_NDIM = 32
+#: Most fields accepted in one file. Material files have about ten; each field costs the
+#: reader a few hundred bytes of Python objects whatever its size, so without a cap a file
+#: of empty fields would cost ten times its size.
+MAX_FIELDS = 4096
+#: Longest ``description`` accepted, in bytes (real ones are a line of text; decoded, a
+#: description can take four times its bytes).
+MAX_DESCRIPTION_BYTES = 1 << 20
 #: Direction pairs evaluated per chunk.
 CHUNK_POINTS = 1 << 14
+#: Elements per block when the warp tables are built (float64 temporaries of a few MB).
+CHUNK_ELEMENTS = 1 << 18
+#: Slack on the incident-angle ranges for float32 rounding (radians).
+_ANGLE_SLACK = 1e-4
 
 _HEADER = 12 + 2 + 4
 _FIELD_MIN = 2 + 2 + 1 + 8  # an entry with an empty name and ndim = 0
 
 
-class _Invalid(Exception):
-    """Internal: a parsing problem, re-raised as InvalidBRDFData with the path."""
+class _Invalid(ValueError):
+    """Internal: a parsing problem, re-raised as InvalidBRDFData with the path (a ValueError
+    so that an :class:`RGLBSDF` built from bad arrays by hand says what is wrong too)."""
 
 
 # --------------------------------------------------------------------------- container
@@ -141,6 +174,9 @@ def _parse_table(stream, size: int, max_bytes: int) -> list[tuple[str, int, int,
         raise _Invalid(f"unsupported tensor_file version {version[0]}.{version[1]} "
                        f"(this reader knows {VERSION[0]}.{VERSION[1]})")
     (n_fields,) = struct.unpack_from("<I", head, 14)
+    if n_fields > MAX_FIELDS:
+        raise _Invalid(f"{n_fields:,} fields declared; at most {MAX_FIELDS:,} are accepted "
+                       "(a material file has about ten)")
     if n_fields * _FIELD_MIN > size - _HEADER:
         raise _Invalid(f"{n_fields:,} fields declared, but only {size - _HEADER:,} bytes follow "
                        "the header: truncated or damaged")
@@ -176,7 +212,9 @@ def _parse_table(stream, size: int, max_bytes: int) -> list[tuple[str, int, int,
             raise _Invalid(f"field {name!r} appears twice")
         names.add(name)
         nbytes = DTYPE_CODES[code].itemsize * math.prod(shape)
-        if offset > size or nbytes > size - offset:
+        # An empty field reads nothing: its offset does not matter (Mitsuba's writer
+        # aligns it, which can put it just past the end).
+        if nbytes and (offset > size or nbytes > size - offset):
             raise _Invalid(f"field {name!r} ({_CODE_NAMES[code]}{list(shape)}, {nbytes:,} bytes "
                            f"at offset {offset:,}) lies past the end of the {size:,}-byte file")
         total += nbytes
@@ -184,7 +222,25 @@ def _parse_table(stream, size: int, max_bytes: int) -> list[tuple[str, int, int,
             raise _Invalid(f"fields need {total:,} bytes, more than the limit of "
                            f"{max_bytes:,} (max_bytes)")
         fields.append((name, code, offset, tuple(int(s) for s in shape)))
+    _check_layout(fields, stream.tell())
     return fields
+
+
+def _check_layout(fields: list[tuple[str, int, int, tuple]], table_end: int) -> None:
+    """No field's data may overlap the table or another field's data.
+
+    The format lays fields out one after another; fields that share bytes would let a
+    small file declare (and make the reader allocate) many times its size.
+    """
+    spans = sorted((offset, offset + DTYPE_CODES[code].itemsize * math.prod(shape), name)
+                   for name, code, offset, shape in fields
+                   if DTYPE_CODES[code].itemsize * math.prod(shape))
+    previous_end, previous = table_end, "the field table"
+    for begin, end, name in spans:
+        if begin < previous_end:
+            raise _Invalid(f"field {name!r} (bytes {begin:,}..{end:,}) overlaps {previous} "
+                           f"(which ends at byte {previous_end:,}): fields must not share bytes")
+        previous_end, previous = end, f"field {name!r}"
 
 
 def _read_tensor(path: Path, max_bytes: int) -> dict[str, np.ndarray]:
@@ -197,22 +253,28 @@ def _read_tensor(path: Path, max_bytes: int) -> dict[str, np.ndarray]:
         for name, code, offset, shape in table:
             dtype = DTYPE_CODES[code]
             count = math.prod(shape)
-            stream.seek(offset)
-            data = stream.read(count * dtype.itemsize)
-            if len(data) != count * dtype.itemsize:
+            # Straight into the array: no bytes object beside it.
+            arr = np.empty(0, dtype) if count == 0 else _read_array(stream, offset, dtype, count)
+            if arr.size != count:
                 raise _Invalid(f"field {name!r} could not be read in full (file shrank?)")
-            arr = np.frombuffer(data, dtype=dtype, count=count).reshape(shape)
-            out[name] = arr.astype(dtype.newbyteorder("="), copy=True)
+            out[name] = arr.astype(dtype.newbyteorder("="), copy=False).reshape(shape)
     return out
+
+
+def _read_array(stream, offset: int, dtype: np.dtype, count: int) -> np.ndarray:
+    stream.seek(offset)
+    return np.fromfile(stream, dtype=dtype, count=count)
 
 
 def read_tensor_file(path, *, max_bytes: int = MAX_TENSOR_BYTES) -> dict[str, np.ndarray]:
     """Read every field of a ``tensor_file`` into ``{name: array}`` (native byte order).
 
-    Raises :class:`InvalidBRDFData` naming the file for a wrong magic or version, an unknown
-    dtype code, a truncated field table, a field reaching past the end of the file, or
-    fields adding up to more than ``max_bytes`` (checked before anything is read); OSError
-    when the file cannot be opened.
+    Raises :class:`InvalidBRDFData` naming the file for a wrong magic or version, more than
+    :data:`MAX_FIELDS` fields, an unknown dtype code, a truncated field table, a field
+    reaching past the end of the file, fields whose data overlap (each other or the table),
+    or fields adding up to more than ``max_bytes`` (all checked before anything is read);
+    OSError when the file cannot be opened. Memory: the fields' arrays, at most the file's
+    size.
     """
     path = Path(path)
     if not path.is_file():
@@ -317,48 +379,93 @@ def _bilinear(table: np.ndarray, u: np.ndarray) -> np.ndarray:
             + fy * ((1 - fx) * table[iy + 1, ix] + fx * table[iy + 1, ix + 1]))
 
 
+def _cumulative_trapezoid(src: np.ndarray, out: np.ndarray,
+                          block: int = CHUNK_ELEMENTS) -> None:
+    """``out[:, j] = Σ_{k<j} ½ (src[:, k] + src[:, k + 1])`` for 2-D ``src`` and ``out``.
+
+    Summed in float64 over blocks of at most ``block`` elements, carrying each row's
+    running sum across column blocks, so that no temporary grows with the table (one
+    slice, or one row, may be the whole of it).
+    """
+    m, n = src.shape
+    cols = min(n, max(1, block))
+    rows = max(1, block // cols)
+    for r0 in range(0, m, rows):
+        r1 = min(m, r0 + rows)
+        carry = np.zeros((r1 - r0, 1))
+        last = None  # the previous block's last column
+        for c0 in range(0, n, cols):
+            piece = src[r0:r1, c0 : c0 + cols].astype(np.float64)
+            if last is None:
+                steps = 0.5 * (piece[:, 1:] + piece[:, :-1])
+                part = np.concatenate([np.zeros((r1 - r0, 1)), np.cumsum(steps, axis=1)], 1)
+            else:
+                ext = np.concatenate([last, piece], axis=1)
+                part = np.cumsum(0.5 * (ext[:, 1:] + ext[:, :-1]), axis=1)
+            part += carry
+            out[r0:r1, c0 : c0 + cols] = part
+            carry, last = part[:, -1:], piece[:, -1:]
+
+
 @dataclass
 class _Warp:
-    """The normalised data and CDFs of ``Marginal2D<2>`` (build_cdf) per (φi, θi) slice."""
+    """``Marginal2D<2>`` (build_cdf) per (φi, θi) slice, in one float32 table beside the data.
 
-    data: np.ndarray  # [φ, θ, ny, nx]
-    conditional: np.ndarray  # [φ, θ, ny, nx]
-    marginal: np.ndarray  # [φ, θ, ny]
+    ``cumulative[..., y, x]`` for x ≥ 1 is the conditional CDF along x of row y (at x = 0
+    it is 0, so that column is free) and ``cumulative[..., y, 0]`` the marginal CDF along
+    y: one float32 per vndf sample in all. Neither is normalised: 1 / ``totals`` (each
+    slice's integral) rides on the corner weights, so ``data`` is the vndf itself, not a
+    normalised copy. float32 as the references store these tables (powitacq's and
+    Mitsuba's ``Marginal2D`` hold ``float``); the sums are taken in float64.
+    """
+
+    data: np.ndarray  # [φ, θ, ny, nx], the vndf
+    cumulative: np.ndarray  # [φ, θ, ny, nx] float32
+    totals: np.ndarray  # [φ, θ] float64
 
     @classmethod
     def build(cls, vndf: np.ndarray) -> _Warp:
-        d = vndf.astype(np.float64)
-        cond = np.zeros_like(d)
-        cond[..., 1:] = np.cumsum(0.5 * (d[..., 1:] + d[..., :-1]), axis=-1)
-        rows = cond[..., -1]
-        marg = np.zeros(d.shape[:-1])
-        marg[..., 1:] = np.cumsum(0.5 * (rows[..., 1:] + rows[..., :-1]), axis=-1)
-        total = marg[..., -1]
-        norm = 1.0 / total
-        return cls(d * norm[..., None, None], cond * norm[..., None, None],
-                   marg * norm[..., None])
+        """Raises a ValueError for a grid under 2 × 2 or a slice without a positive finite
+        integral (its warp would be undefined)."""
+        phis, thetas, ny, nx = vndf.shape
+        if ny < 2 or nx < 2:
+            raise _Invalid(f"vndf has a grid of {[ny, nx]}: at least 2 × 2 needed")
+        cumulative = np.empty(vndf.shape, np.float32)
+        _cumulative_trapezoid(vndf.reshape(-1, nx), cumulative.reshape(-1, nx))
+        slices = cumulative.reshape(-1, ny, nx)
+        _cumulative_trapezoid(slices[:, :, nx - 1], slices[:, :, 0])
+        totals = slices[:, ny - 1, 0].astype(np.float64).reshape(phis, thetas)
+        bad = ~(totals > 0) | ~np.isfinite(totals)
+        if bad.any():
+            j, k = np.argwhere(bad)[0]
+            raise _Invalid(f"vndf slice (phi_i[{j}], theta_i[{k}]) has no positive finite "
+                           "integral: its warp is undefined")
+        return cls(vndf, cumulative, totals)
 
     def invert(self, u: np.ndarray, corners) -> np.ndarray:
         """``Marginal2D::invert``: density-space u (N, 2) → unit-square sample (N, 2)."""
         ny, nx = self.data.shape[2:]
         ix, fx = _cell(u[:, 0], nx)
         iy, fy = _cell(u[:, 1], ny)
+        normalised = [(a, b, w / self.totals[a, b]) for a, b, w in corners]
 
         def look(arr, y, x):
-            return sum(w * arr[a, b, y, x] for a, b, w in corners)
+            return sum(w * arr[a, b, y, x] for a, b, w in normalised)
 
+        cum = self.cumulative
         v00, v10 = look(self.data, iy, ix), look(self.data, iy, ix + 1)
         v01, v11 = look(self.data, iy + 1, ix), look(self.data, iy + 1, ix + 1)
         c0 = (1 - fy) * v00 + fy * v01
         c1 = (1 - fy) * v10 + fy * v11
         x = fx * (c0 + 0.5 * fx * (c1 - c0))
-        x += (1 - fy) * look(self.conditional, iy, ix) + fy * look(self.conditional, iy + 1, ix)
-        r0 = look(self.conditional, iy, nx - 1)
-        r1 = look(self.conditional, iy + 1, nx - 1)
+        before = (1 - fy) * look(cum, iy, ix) + fy * look(cum, iy + 1, ix)
+        x += np.where(ix > 0, before, 0.0)  # column 0 holds the marginal, not the CDF's 0
+        r0 = look(cum, iy, nx - 1)
+        r1 = look(cum, iy + 1, nx - 1)
         with np.errstate(divide="ignore", invalid="ignore"):
             x = x / ((1 - fy) * r0 + fy * r1)
         y = fy * (r0 + 0.5 * fy * (r1 - r0))
-        y += sum(w * self.marginal[a, b, iy] for a, b, w in corners)
+        y += look(cum, iy, 0)
         out = np.stack([x, y], axis=-1)
         return np.clip(np.nan_to_num(out, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
 
@@ -402,10 +509,12 @@ class RGLBSDF:
     def __post_init__(self) -> None:
         self.theta_i = np.asarray(self.theta_i, dtype=np.float64)
         self.phi_i = np.asarray(self.phi_i, dtype=np.float64)
-        self.ndf = np.asarray(self.ndf, dtype=np.float64)
-        self.sigma = np.asarray(self.sigma, dtype=np.float64)
+        # float32 tables stay float32: lookups promote them to float64 exactly, and a copy
+        # would double what they cost.
+        self.ndf = _float_table(self.ndf)
+        self.sigma = _float_table(self.sigma)
         self.values = np.asarray(self.values, dtype=np.float32)
-        self._warp = _Warp.build(np.asarray(self.vndf))
+        self._warp = _Warp.build(np.ascontiguousarray(self.vndf))
         self._resamplers: dict[tuple, np.ndarray] = {}
         self._uplift = SmitsUplift()
         self.reduction = 1
@@ -532,6 +641,11 @@ class RGLBSDF:
         }
 
 
+def _float_table(table) -> np.ndarray:
+    arr = np.asarray(table)
+    return arr if arr.dtype in (np.float32, np.float64) else arr.astype(np.float64)
+
+
 def _directions(wi, wo) -> tuple[np.ndarray, np.ndarray]:
     """Checked (params.check_direction_pairs) and normalised; zero vectors refused."""
     wi, wo = check_direction_pairs(wi, wo)
@@ -566,34 +680,42 @@ def _axis(arr: np.ndarray, name: str) -> np.ndarray:
         raise _Invalid(f"{name} is empty")
     if not np.isfinite(arr).all():
         raise _Invalid(f"{name} holds NaN/inf")
-    if arr.size > 1 and np.any(np.diff(arr.astype(np.float64)) <= 0):
+    # Compared in the file's float32: the same order as in float64, without a copy.
+    if arr.size > 1 and np.any(arr[1:] <= arr[:-1]):
         raise _Invalid(f"{name} is not strictly increasing: {arr[:8].tolist()}...")
     return arr
 
 
-def _build(fields: dict[str, np.ndarray], on_invalid: str) -> dict:
-    description = _field(fields, "description", 1, np.uint8)
-    jacobian = _field(fields, "jacobian", 1, np.uint8)
-    if jacobian.shape != (1,):
-        raise _Invalid(f"field 'jacobian' has shape {list(jacobian.shape)}, expected [1]")
+def _within(axis: np.ndarray, name: str, low: float, high: float, unit: str) -> np.ndarray:
+    """An increasing axis whose ends lie in [low, high]."""
+    if axis[0] < low or axis[-1] > high:
+        raise _Invalid(f"{name} runs from {float(axis[0]):g} to {float(axis[-1]):g} {unit}, "
+                       f"outside {low:g}..{high:g} {unit}: not a plausible measurement")
+    return axis
+
+
+def _description(fields) -> str:
+    raw = _field(fields, "description", 1, np.uint8)
+    if raw.size > MAX_DESCRIPTION_BYTES:
+        raise _Invalid(f"field 'description' holds {raw.size:,} bytes, more than the "
+                       f"{MAX_DESCRIPTION_BYTES:,} accepted for a line of text")
+    return raw.tobytes().decode("utf-8", errors="replace")
+
+
+def _incident_axes(fields) -> tuple[np.ndarray, np.ndarray]:
     theta_i = _axis(_field(fields, "theta_i", 1), "theta_i")
     phi_i = _axis(_field(fields, "phi_i", 1), "phi_i")
-    spectral = "wavelengths" in fields or "spectra" in fields or "rgb" not in fields
-    if spectral:
-        wavelengths = _field(fields, "wavelengths", 1)
-        values = _field(fields, "spectra", 5)
-        _axis(wavelengths, "wavelengths")
-        if wavelengths[0] <= 0:
-            raise _Invalid(f"wavelengths must be positive (nm), got {wavelengths[0]}")
-        n_channels, vname = wavelengths.size, "spectra"
-    else:
-        wavelengths = None
-        values = _field(fields, "rgb", 5)
-        n_channels, vname = 3, "rgb"
-    ndf = _field(fields, "ndf", 2)
-    sigma = _field(fields, "sigma", 2)
-    vndf = _field(fields, "vndf", 4)
-    lum = _field(fields, "luminance", 4)
+    _within(theta_i, "theta_i", -_ANGLE_SLACK, 0.5 * math.pi + _ANGLE_SLACK, "rad")
+    _within(phi_i, "phi_i", -2 * math.pi - _ANGLE_SLACK, 2 * math.pi + _ANGLE_SLACK, "rad")
+    return theta_i, phi_i
+
+
+def _wavelengths(fields) -> np.ndarray:
+    wavelengths = _axis(_field(fields, "wavelengths", 1), "wavelengths")
+    return _within(wavelengths, "wavelengths", *WAVELENGTH_LIMITS_NM, "nm")
+
+
+def _check_shapes(phi_i, theta_i, ndf, sigma, vndf, lum, values, vname, n_channels) -> None:
     npi, nti = phi_i.size, theta_i.size
     for name, arr in (("vndf", vndf), ("luminance", lum), (vname, values)):
         if arr.shape[:2] != (npi, nti):
@@ -601,7 +723,8 @@ def _build(fields: dict[str, np.ndarray], on_invalid: str) -> dict:
                            f"be (phi_i, theta_i) = ({npi}, {nti})")
     if values.shape[2] != n_channels:
         raise _Invalid(f"field {vname!r} has {values.shape[2]} channels on axis 2, expected "
-                       f"{n_channels}" + (" (the size of 'wavelengths')" if spectral else ""))
+                       f"{n_channels}" + (" (the size of 'wavelengths')"
+                                          if vname == "spectra" else ""))
     if values.shape[3] != values.shape[4] or lum.shape[2:] != values.shape[3:]:
         raise _Invalid(f"{vname!r} {list(values.shape)} and 'luminance' {list(lum.shape)} "
                        "need the same square n × n grid on their last two axes")
@@ -615,10 +738,11 @@ def _build(fields: dict[str, np.ndarray], on_invalid: str) -> dict:
             raise _Invalid(f"phi_i spans {float(phi_i[-1] - phi_i[0]):.4g} rad: symmetry "
                            f"reduction {red} is not 1, 2 or 4")
 
+
+def _clean(arrays: dict[str, np.ndarray], on_invalid: str) -> dict:
+    """Count and repair defects *in place* (the arrays are the reader's own): no copies."""
     counts = {"nan": 0, "inf": 0, "negative": 0}
     per: dict[str, dict] = {}
-    arrays = {"ndf": ndf, "sigma": sigma, "vndf": vndf, "luminance": lum, vname: values}
-    cleaned = {}
     for name, arr in arrays.items():
         nan = int(np.isnan(arr).sum())
         inf = int(np.isinf(arr).sum())
@@ -631,30 +755,47 @@ def _build(fields: dict[str, np.ndarray], on_invalid: str) -> dict:
         if (nan or inf) and on_invalid != "clamp":
             raise _Invalid(f"field {name!r} holds {nan} NaN and {inf} inf samples of "
                            f"{arr.size:,} (read with on_invalid='clamp' to set them to 0)")
-        if nan or inf or (neg and name in _DENSITIES):
-            arr = arr.copy()
+        extreme = describe_extreme(arr, f"field {name!r}")
+        if extreme:
+            raise _Invalid(extreme)
+        if nan or inf:
             arr[~np.isfinite(arr)] = 0.0
-            if name in _DENSITIES:
-                arr[arr < 0] = 0.0
-        cleaned[name] = arr
-    if not np.any(cleaned[vname]):
-        raise _Invalid(f"field {vname!r} is all zero: no measurement")
-    d = cleaned["vndf"].astype(np.float64)
-    rows = 0.5 * (d[..., 1:] + d[..., :-1]).sum(axis=-1)
-    totals = 0.5 * (rows[..., 1:] + rows[..., :-1]).sum(axis=-1)
-    if np.any(totals <= 0) or not np.all(np.isfinite(totals)):
-        j, k = np.argwhere(~(totals > 0) | ~np.isfinite(totals))[0]
-        raise _Invalid(f"vndf slice (phi_i[{j}], theta_i[{k}]) has no positive finite "
-                       "integral: its warp is undefined")
+        if neg and name in _DENSITIES:
+            arr[arr < 0] = 0.0
     defects: dict = dict(counts)
     defects["fields"] = per
+    return defects
+
+
+def _build(fields: dict[str, np.ndarray], on_invalid: str) -> dict:
+    description = _description(fields)
+    jacobian = _field(fields, "jacobian", 1, np.uint8)
+    if jacobian.shape != (1,):
+        raise _Invalid(f"field 'jacobian' has shape {list(jacobian.shape)}, expected [1]")
+    theta_i, phi_i = _incident_axes(fields)
+    spectral = "wavelengths" in fields or "spectra" in fields or "rgb" not in fields
+    if spectral:
+        wavelengths = _wavelengths(fields)
+        values = _field(fields, "spectra", 5)
+        n_channels, vname = wavelengths.size, "spectra"
+    else:
+        wavelengths = None
+        values = _field(fields, "rgb", 5)
+        n_channels, vname = 3, "rgb"
+    ndf = _field(fields, "ndf", 2)
+    sigma = _field(fields, "sigma", 2)
+    vndf = _field(fields, "vndf", 4)
+    lum = _field(fields, "luminance", 4)
+    _check_shapes(phi_i, theta_i, ndf, sigma, vndf, lum, values, vname, n_channels)
+    arrays = {"ndf": ndf, "sigma": sigma, "vndf": vndf, "luminance": lum, vname: values}
+    defects = _clean(arrays, on_invalid)
+    if not np.any(values):
+        raise _Invalid(f"field {vname!r} is all zero: no measurement")
     return {
-        "theta_i": theta_i, "phi_i": phi_i, "ndf": cleaned["ndf"], "sigma": cleaned["sigma"],
-        "vndf": cleaned["vndf"], "luminance": cleaned["luminance"], "values": cleaned[vname],
+        "theta_i": theta_i, "phi_i": phi_i, "ndf": ndf, "sigma": sigma, "vndf": vndf,
+        "luminance": lum, "values": values,
         "wavelengths": None if wavelengths is None else wavelengths.astype(np.float64),
-        "jacobian": bool(jacobian[0]),
-        "description": bytes(description).decode("utf-8", errors="replace"),
-        "defects": defects,
+        "jacobian": bool(jacobian[0]), "description": description, "defects": defects,
     }
 
 
@@ -673,9 +814,10 @@ def read_rgl_bsdf(path, *, on_invalid: str = "raise",
     Raises
     ------
     InvalidBRDFData
-        (a ``ValueError``) naming the file, for any damage to the container or a missing /
-        mis-shaped / mis-typed field, non-monotonic axes, non-finite samples (unless
-        clamped), all-zero spectra or degenerate vndf slices.
+        (a ``ValueError``) naming the file, for any damage to the container (fields past
+        the end, overlapping or too many), a missing / mis-shaped / mis-typed field,
+        non-monotonic axes, angles or wavelengths out of range, non-finite samples (unless
+        clamped), samples beyond ±10³⁰, all-zero spectra or degenerate vndf slices.
     """
     if on_invalid not in ("raise", "clamp"):
         raise ValueError(f"on_invalid must be 'raise' or 'clamp', got {on_invalid!r}")
