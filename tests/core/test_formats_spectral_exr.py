@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -11,6 +12,8 @@ import numpy as np
 import pytest
 
 OpenEXR = pytest.importorskip("OpenEXR")
+
+from bombs_archives import BOMBS  # noqa: E402
 
 from spectral_materials.core import spectra  # noqa: E402
 from spectral_materials.core.formats import spectral_exr as sx  # noqa: E402
@@ -317,6 +320,64 @@ def test_defects_counted(tmp_path):
         read_spectral_exr(path, on_invalid="raise")
 
 
+@pytest.mark.parametrize("name, wavelength", [("T.5E14nm", "5e\\+14"), ("T.5nm", "5"),
+                                              ("T.0,5mm", "500000"), ("T.1Hz", "2.99792e\\+17")])
+def test_wavelengths_outside_the_limits_refused(tmp_path, name, wavelength):
+    plane = np.ones((2, 3), np.float32)
+    path = write_exr(tmp_path / "far.exr", {"T.500nm": plane, name: plane})
+    with pytest.raises(InvalidSpectralImage,
+                       match=rf"far.exr: channel '{name}' gives wavelength {wavelength} nm, "
+                             "outside 10–100000 nm"):
+        read_spectral_exr(path)
+
+
+def test_extreme_samples_refused_in_every_mode(tmp_path):
+    values = _values()
+    values[1, 2, 3] = 5e35
+    values[0, 0, 0] = -2e31
+    path = write_spectral_exr(tmp_path / "loud.exr", WL, values, allow_invalid=True)
+    for mode in ("keep", "raise", "clamp"):
+        with pytest.raises(InvalidSpectralImage,
+                           match=r"loud.exr: 2 samples beyond ±1e\+30 \(largest magnitude 5e\+35"):
+            read_spectral_exr(path, on_invalid=mode)
+    values[1, 2, 3] = values[0, 0, 0] = 1e30  # the limit itself is accepted
+    path = write_spectral_exr(tmp_path / "edge.exr", WL, values)
+    assert read_spectral_exr(path).values.max() == np.float32(1e30)
+
+
+def test_non_utf8_file_name_is_read(tmp_path):
+    path = tmp_path / os.fsdecode(b"\xff\xfe spectral.exr")
+    values = _values(seed=4)
+    write_spectral_exr(path, WL, values)
+    image = read_spectral_exr(path)
+    np.testing.assert_array_equal(image.values, values)
+    np.testing.assert_array_equal(image.wavelengths, WL)
+
+
+def test_compressed_bomb_refused_before_decoding(tmp_path):
+    path = BOMBS["spectral_exr_bomb"].make(tmp_path)
+    with pytest.raises(InvalidSpectralImage,
+                       match=r"spectral_exr_bomb.exr: declares 1,073,741,824 bytes of "
+                             r"compressed pixels in a [\d,]+-byte file \(1,012:1; at most 256:1"):
+        read_spectral_exr(path)
+
+
+def test_uncompressed_pixels_must_be_in_the_file(tmp_path):
+    plane = np.ones((16, 16), np.float32)
+    header = {"compression": OpenEXR.NO_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"T.500nm": plane, "T.600nm": plane}) as handle:
+        handle.write(str(tmp_path / "raw.exr"))
+    raw = bytearray((tmp_path / "raw.exr").read_bytes())
+    key = b"dataWindow\x00box2i\x00"
+    at = raw.index(key) + len(key) + 4
+    raw[at + 8: at + 16] = np.array([2047, 2047], "<i4").tobytes()
+    path = tmp_path / "forged.exr"
+    path.write_bytes(bytes(raw))
+    with pytest.raises(InvalidSpectralImage, match=r"forged.exr: its uncompressed pixels need "
+                                                   r"33,554,432 bytes; the file has"):
+        read_spectral_exr(path)
+
+
 def test_writer_refusals(tmp_path):
     path = tmp_path / "w.exr"
     v = _values(wl=np.ones(3))
@@ -340,6 +401,12 @@ def test_writer_refusals(tmp_path):
         write_spectral_exr(path, [400, 500, 600], bad)
     with pytest.raises(ValueError, match="non-finite"):
         write_spectral_exr(path, [400, 500, 600], v * 1e39)  # float32 overflow
+    with pytest.raises(ValueError, match=r"samples beyond ±1e\+30"):
+        write_spectral_exr(path, [400, 500, 600], v * 1e32)
+    with pytest.raises(ValueError, match="within 10–100000 nm"):
+        write_spectral_exr(path, [5, 500, 600], v)
+    with pytest.raises(ValueError, match="within 10–100000 nm"):
+        write_spectral_exr(path, [400, 500, 2e5], v)
     assert not path.exists() and not list(tmp_path.iterdir())
 
 

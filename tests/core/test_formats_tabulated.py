@@ -10,6 +10,7 @@ import zipfile
 
 import numpy as np
 import pytest
+from bombs_archives import BOMBS
 
 from spectral_materials.core import factor_brdf, metrics, models, spectra
 from spectral_materials.core.errors import InvalidBRDFData
@@ -250,6 +251,38 @@ def test_flipped_bytes_raise_or_read_identically(on_file, tmp_path):
         else:  # a flip in an unchecked zip field (a timestamp, say): the data are intact
             np.testing.assert_array_equal(tab.values, reference)
     assert raised >= trials * 0.7
+
+
+def test_compressed_archives_read_identically(on_file, tmp_path):
+    reference = read_tabulated(on_file)
+    with np.load(on_file, allow_pickle=False) as data:
+        arrays = {name: data[name] for name in data.files}
+    packed = tmp_path / "packed.npz"
+    np.savez_compressed(packed, **arrays)
+    with zipfile.ZipFile(packed) as archive:
+        assert archive.getinfo("values.npy").compress_type == zipfile.ZIP_DEFLATED
+    table = read_tabulated(packed)
+    np.testing.assert_array_equal(table.values, reference.values)
+    np.testing.assert_array_equal(table.wavelengths, reference.wavelengths)
+    # float64 samples are read as float32, and a flat table deflating far beyond
+    # MAX_DEFLATE_RATIO is still read while it declares at most a MiB.
+    flat = tmp_path / "flat.npz"
+    np.savez_compressed(flat, meta=arrays["meta"], wavelengths=arrays["wavelengths"],
+                        values=np.zeros(arrays["values"].shape))
+    assert read_tabulated(flat).values.dtype == np.float32
+
+
+def test_declared_sizes_checked_against_the_bytes_present(tmp_path):
+    lie = BOMBS["npz_declared_size"].make(tmp_path)
+    with pytest.raises(InvalidBRDFData, match=r"npz_declared_size.npz: member 'values.npy' "
+                                              r"declares 3,895,776,128 bytes of data from offset "
+                                              r"[\d,]+, past the end of the 10,279-byte archive"):
+        read_tabulated(lie)
+    bomb = BOMBS["npz_deflate_bomb"].make(tmp_path)
+    with pytest.raises(InvalidBRDFData, match=r"npz_deflate_bomb.npz: member 'values.npy' "
+                                              r"declares 1,108,080,128 bytes from [\d,]+ "
+                                              r"compressed \(1,011:1; at most 512:1"):
+        read_tabulated(bomb)
 
 
 def test_other_bad_files(on_file, tmp_path):

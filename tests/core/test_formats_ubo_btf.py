@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import io
 import struct
+import tracemalloc
 import zipfile
 from collections import Counter
 
 import numpy as np
 import pytest
+from bombs_archives import BOMBS
 
 from spectral_materials.core.errors import InvalidBRDFData
 from spectral_materials.core.formats.ubo_btf import (
@@ -230,6 +232,90 @@ def test_jpeg_header_declaring_huge_image(tmp_path):
     path = zip_with(tmp_path, {"tl000 pl000 tv000 pv000.jpg": bytes(data)})
     with pytest.raises(InvalidBTFData, match="5000×5000 pixels, over the 67,108,864-byte"):
         read_ubo2003(path)
+
+
+def _peak_python_bytes(function) -> int:
+    """Peak bytes allocated through Python (numpy included) while ``function`` runs."""
+    tracemalloc.start()
+    try:
+        function()
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    return peak
+
+
+def test_every_jpeg_header_checked_before_allocation(tmp_path):
+    claim = BOMBS["ubo2003_size_claim"].make(tmp_path)
+
+    def read_claim():
+        with pytest.raises(InvalidBTFData, match=r"ubo2003_size_claim.zip: member 'tl000 pl000 "
+                                                 r"tv000 pv000.jpg' claims 4096×4096 pixels in "
+                                                 r"\d+ bytes; a JPEG encodes at most 512"):
+            read_ubo2003(claim)
+
+    assert _peak_python_bytes(read_claim) < 4 << 20
+    # A size mismatch in the last member is found before the (1, 2, 512, 512, 3) array.
+    path = zip_with(tmp_path, {"tl000 pl000 tv000 pv000.jpg": jpeg_bytes(size=(512, 512)),
+                               "tl015 pl000 tv000 pv000.jpg": jpeg_bytes()})
+
+    def read_mismatch():
+        with pytest.raises(InvalidBTFData, match="is 8×8; the first image is 512×512"):
+            read_ubo2003(path)
+
+    assert _peak_python_bytes(read_mismatch) < 2 << 20
+
+
+def test_sparse_sets_need_lazy(tmp_path):
+    path = BOMBS["ubo2003_diagonal"].make(tmp_path)
+    with pytest.raises(InvalidBTFData, match=r"ubo2003_diagonal.zip: only 300 of the 300 × 300 "
+                                             r"\(view, light\) pairs have an image: all images "
+                                             r"as one array would take 622,080,000 bytes.*"
+                                             r"lazy=True"):
+        read_ubo2003(path)
+    lazy = read_ubo2003(path, lazy=True)
+    assert lazy.present.sum() == 300 and lazy.defects["missing"] == 300 * 299
+    assert len(lazy.defects["missing_pairs"]) == 10
+    image = lazy.lookup(7, 7)  # the bomb's flat colour (128, 64, 32)
+    assert image.shape == (24, 24, 3)
+    np.testing.assert_allclose(image, np.broadcast_to([128 / 255, 64 / 255, 32 / 255],
+                                                      image.shape), atol=3 / 255)
+    with pytest.raises(KeyError):
+        lazy.lookup(7, 8)
+    with pytest.raises(InvalidBTFData, match="lazy=True"):
+        _ = lazy.images
+    # Missing pairs are fine while their NaN images stay within the present ones + slack.
+    images = smooth_images(np.random.default_rng(12))
+    present = np.eye(3, 4, dtype=bool)
+    present[0, 3] = True
+    btf = read_ubo2003(write_ubo2003(tmp_path / "few.zip", images, LIGHTS, VIEWS,
+                                     present=present))
+    assert np.isnan(btf.images[~present]).all() and np.isfinite(btf.images[present]).all()
+
+
+def test_too_many_pairs(tmp_path):
+    angles = [(t, p) for t in range(91) for p in range(0, 360, 4)][:4097]
+    path = tmp_path / "pairs.zip"
+    with zipfile.ZipFile(path, "w") as zf:
+        for t, p in angles:
+            zf.writestr(f"tl{t:03d} pl{p:03d} tv{t:03d} pv{p:03d}.jpg", b"")
+    with pytest.raises(InvalidBTFData, match=r"pairs.zip: 4,097 views × 4,097 lights from "
+                                             r"4,097 images: over the 16,777,216-pair limit"):
+        read_ubo2003(path, lazy=True)
+
+
+def test_padded_members_refused_before_inflating(tmp_path):
+    path = BOMBS["ubo2003_zip_bomb"].make(tmp_path)
+    with pytest.raises(InvalidBTFData, match=r"ubo2003_zip_bomb.zip: member 'tl000 pl000 tv000 "
+                                             r"pv000.jpg' declares 67,108,864 bytes from [\d,]+ "
+                                             r"compressed \(1,005:1; at most 64:1"):
+        read_ubo2003(path)
+    # Deflated JPEG members as a zip tool writes them are read as stored ones.
+    images = smooth_images(np.random.default_rng(13), 2, 2)
+    stored = read_ubo2003(write_ubo2003(tmp_path / "s.zip", images, LIGHTS[:2], VIEWS[:2]))
+    packed = read_ubo2003(write_ubo2003(tmp_path / "d.zip", images, LIGHTS[:2], VIEWS[:2],
+                                        compression=zipfile.ZIP_DEFLATED))
+    np.testing.assert_array_equal(packed.images, stored.images)
 
 
 def test_missing_path_not_zip_empty_dir(tmp_path):
@@ -483,6 +569,35 @@ def test_fuzz_ubo2014(tmp_path, btf14):
         except InvalidBTFData:
             outcomes["InvalidBTFData"] += 1
     assert sum(outcomes.values()) == 200 and outcomes["InvalidBTFData"] > 50
+
+
+def test_ubo2014_overflowing_factors_refused(tmp_path):
+    u, sxv, s = fmf_factors(truth(np.random.default_rng(14)))
+    u[3, 0] = 2.5e38
+    path = write_ubo2014(tmp_path / "loud.btf", view_angles=V14, light_angles=L14, width=W14,
+                         height=H14, u=u, sxv=sxv, data_size=4)
+    with pytest.raises(InvalidBTFData, match=r"loud.btf: its factors reach values up to "
+                                             r"[\d.]+e\+38 .*beyond float32's 3.4e\+38"):
+        read_ubo2014(path)
+    u[3, 0] = 1e30  # large, but no sum can leave float32
+    path = write_ubo2014(tmp_path / "ok.btf", view_angles=V14, light_angles=L14, width=W14,
+                         height=H14, u=u, sxv=sxv, data_size=4)
+    btf = read_ubo2014(path)
+    assert not btf.defects["may_overflow"]
+    assert np.isfinite(btf.lookup(0, 1)).all() and np.isfinite(btf.texel(2, 1)).all()
+
+
+def test_ubo2014_log_encoded_overflow_flagged(tmp_path):
+    t = truth(np.random.default_rng(15))
+    u, sxv, s = fmf_factors(np.log(t + 1e-5))
+    kwargs = dict(signature="FMF1", view_angles=V14, light_angles=L14, width=W14, height=H14,
+                  sxv=sxv, singular_values=s, data_size=8, dynamic_range_reduction=True)
+    btf = read_ubo2014(write_ubo2014(tmp_path / "fine.btf", u=u, **kwargs))
+    assert btf.defects["may_overflow"] is False
+    u[0] *= -1e3  # view 0, light 0, channel R: log values in the thousands
+    btf = read_ubo2014(write_ubo2014(tmp_path / "bright.btf", u=u, **kwargs))
+    assert btf.defects["may_overflow"] is True
+    assert np.isinf(btf.lookup(0, 0)).any()
 
 
 def test_ubo2014_non_finite_factors_counted(tmp_path):

@@ -57,29 +57,39 @@ Conventions of this module
   should not alter measured data silently), refused (``"raise"``) or set to 0
   (``"clamp"``).
 
-Reading validates the file before reading any pixel: the magic number, then the
-header alone (``OpenEXR.File(..., header_only=True)``): part type, channel names,
-sampling, and ``width × height × channels`` against :data:`MAX_SAMPLES`. Every
-sort of damage becomes :class:`InvalidSpectralImage` (a ``ValueError``) naming
-the file.
+Reading validates the file before reading any pixel: the magic number, the bytes
+the pixels declare against the file's size (:func:`.exr.check_decoded_size`: an
+uncompressed part cannot hold more than the file, compressed pixels at most
+:data:`.exr.MAX_COMPRESSION_RATIO` times it), then the header alone
+(``OpenEXR.File(..., header_only=True)``): part type, channel names, sampling,
+wavelengths within :data:`WAVELENGTH_LIMITS_NM`, and ``width × height ×
+channels`` against :data:`MAX_SAMPLES`. After decoding, finite samples beyond
+±:data:`MAX_SAMPLE` are refused whatever ``on_invalid`` says: they are no
+measurement, and arithmetic on them overflows far from the file. Every sort of
+damage becomes :class:`InvalidSpectralImage` (a ``ValueError``) naming the file.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..sample_limits import MAX_SAMPLE, WAVELENGTH_LIMITS_NM
+from . import exr as _exr
 from ._files import atomic_path
 
 __all__ = [
     "EMISSIVE_UNITS",
     "LAYOUT_VERSION",
     "MAX_CHANNELS",
+    "MAX_SAMPLE",
     "MAX_SAMPLES",
+    "WAVELENGTH_LIMITS_NM",
     "InvalidSpectralImage",
     "SpectralEXRFileNotFound",
     "SpectralImage",
@@ -99,6 +109,12 @@ EMISSIVE_UNITS = "W.m^-2.sr^-1"
 MAX_SAMPLES = 1 << 28
 #: Refuse headers listing more channels than this.
 MAX_CHANNELS = 100_000
+# WAVELENGTH_LIMITS_NM (10 nm – 100 µm) and MAX_SAMPLE (±10³⁰) are the project's bounds
+# (core.sample_limits). For images: spectral cameras and renderers work within
+# 200–2500 nm, thermal imagers to about 14 µm, so a wavelength outside is a damaged name or
+# a wrong unit (5e14 nm), not a band; radiance in W·m⁻²·sr⁻¹·nm⁻¹ stays below about 10⁵
+# even for the Sun's disc, and at 10³⁰ a float32 sum over the largest image read
+# (MAX_SAMPLES = 2²⁸ samples) still stays finite (2.7 × 10³⁸ < 3.4 × 10³⁸).
 
 KINDS = ("reflective", "emissive")
 _LAYER = {"reflective": "T", "emissive": "S0"}
@@ -335,7 +351,7 @@ def write_spectral_exr(
     Parameters
     ----------
     wavelengths_nm : array (L,)
-        Finite, positive, strictly increasing (nm).
+        Strictly increasing, within :data:`WAVELENGTH_LIMITS_NM` (nm).
     values : array (H, W, L)
         Stored as float32 (see the module docstring); emissive → ``S0`` channels,
         reflective → ``T`` channels.
@@ -351,7 +367,8 @@ def write_spectral_exr(
         (``spectralLayoutVersion``, ``emissiveUnits``, ``polarisationHandedness``,
         ``EV``) are written by this function and refused here.
     allow_invalid : bool
-        Write NaN/inf samples instead of raising (for testing readers).
+        Write NaN/inf samples and samples beyond ±:data:`MAX_SAMPLE` instead of raising
+        (for testing readers).
 
     The file is written under a temporary name beside ``path`` and renamed.
     """
@@ -365,6 +382,10 @@ def write_spectral_exr(
         raise ValueError(f"wavelengths must be a non-empty 1-D array, got shape {wl.shape}")
     if not (np.isfinite(wl).all() and (wl > 0).all()):
         raise ValueError("wavelengths must be finite and positive")
+    low, high = WAVELENGTH_LIMITS_NM
+    if wl.min() < low or wl.max() > high:
+        raise ValueError(f"wavelengths must lie within {low:g}–{high:g} nm (the reader "
+                         f"refuses others), got {wl.min():g}–{wl.max():g}")
     if wl.size > 1 and np.any(np.diff(wl) <= 0):
         raise ValueError("wavelengths must be strictly increasing (no duplicates)")
     data = np.asarray(values)
@@ -378,6 +399,11 @@ def write_spectral_exr(
         bad = int((~np.isfinite(stored)).sum())
         raise ValueError(f"{path}: refusing to write {bad} non-finite samples (after "
                          "conversion to float32)")
+    if not allow_invalid:  # all finite here: only the magnitude is left to check
+        extreme = int(np.count_nonzero((stored > MAX_SAMPLE) | (stored < -MAX_SAMPLE)))
+        if extreme:
+            raise ValueError(f"{path}: refusing to write {extreme} samples beyond "
+                             f"±{MAX_SAMPLE:g} (the reader refuses them)")
     if kind == "reflective" and units is not None:
         raise ValueError("reflective spectra are unitless: pass units=None")
     header_extra: dict = {"spectralLayoutVersion": LAYOUT_VERSION, "EV": 0.0}
@@ -407,7 +433,7 @@ def write_spectral_exr(
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     header.update(header_extra)
     with atomic_path(path, ".tmp.exr") as temporary, OpenEXR.File(header, channels) as exr:
-        exr.write(str(temporary))
+        exr.write(os.fsencode(temporary))
     return path
 
 
@@ -453,6 +479,10 @@ def _select(names: list[str], kind: str | None) -> tuple[str, list[tuple[float, 
         if parsed is None:
             bispectral += bool(_BISPECTRAL.fullmatch(name))
             continue
+        low, high = WAVELENGTH_LIMITS_NM
+        if not low <= parsed[2] <= high:
+            raise _Invalid(f"channel {name!r} gives wavelength {parsed[2]:g} nm, outside "
+                           f"{low:g}–{high:g} nm (a damaged name or a wrong unit)")
         layer = "T" if parsed[0] == "reflective" else f"S{parsed[1]}"
         layers.setdefault(layer, []).append((parsed[2], name))
     for layer, entries in layers.items():
@@ -500,17 +530,29 @@ def _select(names: list[str], kind: str | None) -> tuple[str, list[tuple[float, 
 
 
 def _scan(values: np.ndarray, clamp: bool) -> dict:
+    """Counts of NaN, inf and negative samples (set to 0 with ``clamp``), chunk by chunk;
+    raises _Invalid for finite samples beyond ±MAX_SAMPLE, which no mode keeps."""
     counts = {"nan": 0, "inf": 0, "negative": 0}
+    extreme, largest = 0, 0.0
     flat = values.reshape(-1)
     step = 1 << 22
     for begin in range(0, flat.size, step):
         chunk = flat[begin: begin + step]
-        nan, inf, neg = np.isnan(chunk), np.isinf(chunk), chunk < 0
+        nan, inf = np.isnan(chunk), np.isinf(chunk)
+        with np.errstate(invalid="ignore"):
+            neg = chunk < 0
+            huge = ((chunk > MAX_SAMPLE) | (chunk < -MAX_SAMPLE)) & ~inf
         counts["nan"] += int(nan.sum())
         counts["inf"] += int(inf.sum())
         counts["negative"] += int(neg.sum())
+        if huge.any():
+            extreme += int(huge.sum())
+            largest = max(largest, float(np.abs(chunk[huge]).max()))
         if clamp:
             chunk[nan | inf | neg] = 0.0
+    if extreme:
+        raise _Invalid(f"{extreme:,} samples beyond ±{MAX_SAMPLE:g} (largest magnitude "
+                       f"{largest:g}): not a measurement, and they overflow later arithmetic")
     return counts
 
 
@@ -522,8 +564,10 @@ def _read(path: Path, kind: str | None, on_invalid: str) -> SpectralImage:
     if magic != _MAGIC:
         raise _Invalid("not an OpenEXR file (bad magic number)")
     # 1. The header alone: names, sizes, limits.
+    _exr.check_decoded_size(path, _exr.read_layout(path, error=InvalidSpectralImage),
+                            max_pixels=MAX_SAMPLES, error=InvalidSpectralImage)
     try:
-        with OpenEXR.File(str(path), header_only=True) as exr:
+        with _exr.open_exr(path, header_only=True) as exr:
             parts = len(exr.parts)
             header = dict(exr.header()) if parts == 1 else {}
             listed = list(header.get("channels") or [])
@@ -552,7 +596,7 @@ def _read(path: Path, kind: str | None, on_invalid: str) -> SpectralImage:
             raise _Invalid(f"channel {name!r} is subsampled ({sampling[name]})")
     # 2. The pixels.
     try:
-        exr = OpenEXR.File(str(path), separate_channels=True)
+        exr = _exr.open_exr(path, separate_channels=True)
         channels = exr.channels()
     except Exception as exc:
         raise _Invalid(f"damaged or truncated pixel data ({type(exc).__name__}: {exc})"
@@ -620,6 +664,8 @@ def read_spectral_exr(path: str | Path, *, kind: str | None = None,
         raise InvalidSpectralImage(f"{path}: not a regular file")
     try:
         return _read(path, kind, on_invalid)
+    except InvalidSpectralImage:
+        raise
     except _Invalid as exc:
         raise InvalidSpectralImage(f"{path}: {exc}") from None
     except PermissionError:

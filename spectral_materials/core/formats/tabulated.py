@@ -32,9 +32,13 @@ members (shape, dtype, and that the member's size matches the header) before it
 allocates anything, refuses more than :data:`MAX_ENTRIES` samples, and turns
 every sort of damage (truncation, flipped bytes caught by the zip CRCs, missing
 entries, a file that is not a zip) into :class:`InvalidBRDFData` (a
-``ValueError``) naming the file and the problem. Non-finite or negative samples
-raise by default; ``on_invalid="clamp"`` sets them to 0 and records their
-counts in :attr:`TabulatedBRDF.defects`.
+``ValueError``) naming the file and the problem. Declared sizes are checked
+against the bytes present: a stored member must hold its declared bytes inside
+the archive, a compressed one may declare at most :data:`MAX_DEFLATE_RATIO`
+times its compressed size, and members are inflated step by step under a
+running cap at their declared size, so memory stays in proportion to the file.
+Non-finite or negative samples raise by default; ``on_invalid="clamp"`` sets
+them to 0 and records their counts in :attr:`TabulatedBRDF.defects`.
 
 Evaluating
 ----------
@@ -66,7 +70,7 @@ from ..params import (
 )
 from ..progress import ProgressCallback
 from ..tabulate import Grid, interpolate, tabulate
-from ._files import atomic_write
+from ._files import atomic_write, open_zip_member
 
 FORMAT = "spectral_materials.tabulated_brdf"
 FORMAT_VERSION = 1
@@ -78,8 +82,18 @@ MAX_META_BYTES = 1 << 20
 MAX_WAVELENGTHS = 100_000
 #: Direction pairs evaluated per chunk in :meth:`TabulatedBRDF.__call__`.
 CHUNK_POINTS = 16384
+#: Refuse a compressed member that declares more than this many times its compressed
+#: bytes (beyond its first MiB, :data:`._files.RATIO_FREE_BYTES`). Measured with
+#: ``np.savez_compressed`` on tables of this module: Oren–Nayar 2.6:1, GGX on a metal
+#: 31:1, spectrally flat GGX 82:1, spectrally flat tables with large zero regions (Lambert
+#: in ``gs``, a no-diffuse Ashikhmin–Shirley lobe of exponent 10⁴) 295–317:1. Deflate
+#: cannot exceed about 1030:1, which a table of zeros reaches: that is how a 1 MB file
+#: claims a gigabyte. (This module's writer stores members uncompressed: 1:1.)
+MAX_DEFLATE_RATIO = 512
 #: Samples scanned per chunk for NaN/inf/negatives.
 _SCAN_ENTRIES = 1 << 22
+#: The most any member can declare: MAX_ENTRIES float64 samples and a .npy header.
+_MAX_MEMBER_BYTES = MAX_ENTRIES * 8 + (1 << 16)
 
 __all__ = [
     "FORMAT",
@@ -346,7 +360,14 @@ class _Invalid(Exception):
     """Internal: a problem found while parsing, turned into InvalidBRDFData with the path."""
 
 
-def _member_header(archive: zipfile.ZipFile, name: str) -> tuple[tuple[int, ...], np.dtype]:
+def _open_member(path: Path, info: zipfile.ZipInfo):
+    """The member's bytes, its declared sizes checked against the archive first."""
+    return open_zip_member(path, info, max_bytes=_MAX_MEMBER_BYTES,
+                           max_ratio=MAX_DEFLATE_RATIO)
+
+
+def _member_header(path: Path, archive: zipfile.ZipFile, name: str
+                   ) -> tuple[tuple[int, ...], np.dtype]:
     """Shape and dtype of ``name.npy`` from its header, checked against the member's size."""
     member = f"{name}.npy"
     try:
@@ -354,7 +375,7 @@ def _member_header(archive: zipfile.ZipFile, name: str) -> tuple[tuple[int, ...]
     except KeyError:
         raise _Invalid(f"no '{name}' entry (has: "
                        f"{', '.join(sorted(archive.namelist())) or 'nothing'})") from None
-    with archive.open(info) as stream:
+    with _open_member(path, info) as stream:
         version = np.lib.format.read_magic(stream)
         if version == (1, 0):
             shape, _, dtype = np.lib.format.read_array_header_1_0(stream)
@@ -405,40 +426,48 @@ def _parse_meta(raw: np.ndarray) -> dict:
     return meta
 
 
+def _read_member(path: Path, archive: zipfile.ZipFile, name: str) -> np.ndarray:
+    """The array of ``name.npy``, inflated under a running cap (after :func:`_member_header`
+    checked its declared size: no more is allocated than the member really holds)."""
+    with _open_member(path, archive.getinfo(f"{name}.npy")) as stream:
+        return np.lib.format.read_array(stream, allow_pickle=False)
+
+
 def _read(path: Path, on_invalid: str) -> TabulatedBRDF:
     # 1. meta (small), 2. the headers of the big members, checked against it;
     # 3. only then the samples.
     with zipfile.ZipFile(path) as archive:
-        meta_shape, meta_dtype = _member_header(archive, "meta")
+        meta_shape, meta_dtype = _member_header(path, archive, "meta")
         if meta_dtype != np.uint8 or len(meta_shape) != 1 or meta_shape[0] > MAX_META_BYTES:
             raise _Invalid(f"'meta' is {meta_dtype} of shape {meta_shape}; expected uint8 bytes "
                            f"(at most {MAX_META_BYTES:,})")
-        with archive.open("meta.npy") as stream:
-            meta = _parse_meta(np.lib.format.read_array(stream, allow_pickle=False))
+        meta = _parse_meta(_read_member(path, archive, "meta"))
         param = PARAMETERIZATIONS[meta["parameterization"]]
         resolution = tuple(meta["resolution"])
         try:
             grid = Grid(param, resolution)
         except ValueError as exc:
             raise _Invalid(str(exc)) from None
-        wl_shape, wl_dtype = _member_header(archive, "wavelengths")
+        wl_shape, wl_dtype = _member_header(path, archive, "wavelengths")
         if wl_dtype.kind not in "fiu" or len(wl_shape) != 1 or not 1 <= wl_shape[0] \
                 <= MAX_WAVELENGTHS:
             raise _Invalid(f"'wavelengths' is {wl_dtype} of shape {wl_shape}; expected a 1-D "
                            f"float array of 1..{MAX_WAVELENGTHS}")
-        values_shape, values_dtype = _member_header(archive, "values")
+        values_shape, values_dtype = _member_header(path, archive, "values")
         expected = resolution + (wl_shape[0],)
         if values_shape != expected:
             raise _Invalid(f"'values' has shape {values_shape}; resolution {list(resolution)} "
                            f"and {wl_shape[0]} wavelengths need {expected}")
         if values_dtype.kind != "f" or values_dtype.itemsize > 8:
             raise _Invalid(f"'values' has dtype {values_dtype}; float32 expected")
-    with np.load(path, allow_pickle=False, mmap_mode=None) as data:
         try:
-            wavelengths = spectra.check_wavelengths(data["wavelengths"].astype(np.float64))
+            raw = _read_member(path, archive, "wavelengths").astype(np.float64)
+            wavelengths = spectra.check_wavelengths(raw)
+        except InvalidBRDFData:
+            raise
         except ValueError as exc:
             raise _Invalid(f"bad wavelengths: {exc}") from None
-        values = np.ascontiguousarray(data["values"], dtype=np.float32)
+        values = np.ascontiguousarray(_read_member(path, archive, "values"), dtype=np.float32)
     if values.shape != expected:  # the header check makes this unreachable; belt and braces
         raise _Invalid(f"'values' read with shape {values.shape}, expected {expected}")
     counts, first = _scan(values, grid, wavelengths, clamp=on_invalid == "clamp")

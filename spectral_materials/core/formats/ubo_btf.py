@@ -23,15 +23,25 @@ that use them undo a display gamma first (elerac/btf-rendering, ``custom_bsdf/me
 values in [0, 1] (``encoding == "srgb"``) unless ``linear=True``, which applies the sRGB
 EOTF (IEC 61966-2-1, colour-science's ``eotf_sRGB``) exactly per 8-bit code.
 
-The reader validates every member name against the pattern, and the declared (central
-directory) uncompressed sizes against ``max_member_bytes`` and ``max_bytes``, before it
-decodes anything; then it reads the first JPEG's header and checks the decoded array
-``(views, lights, H, W, 3)`` float32 against ``max_bytes`` before allocating it.
-Python's zipfile never inflates a member past its declared size and checks its CRC, so
-these declared sizes bound what decoding can allocate. Views and lights are the sorted
-distinct (θ, φ) pairs found; a (view, light) pair with no image is counted in
-``defects["missing"]``, flagged ``False`` in :attr:`UBOBTF.present` and filled with NaN,
-never invented.
+The reader checks the whole archive before it allocates any image, so that memory stays
+in proportion to the bytes present:
+
+* every member name against the pattern, and every member's declared (central directory)
+  sizes against the archive: a stored member must hold its bytes inside the archive, a
+  compressed one may declare at most :data:`MAX_MEMBER_RATIO` times its compressed size
+  (JPEG data do not compress), each at most ``max_member_bytes``, all together at most
+  ``max_bytes``;
+* every member's JPEG header (read lazily, inflated under a running cap): one image size
+  for all, RGB or greyscale, at most ``max_member_bytes`` as 8-bit RGB, and at most
+  :data:`MAX_JPEG_PIXELS_PER_BYTE` pixels per byte of the member;
+* the decoded array ``(views, lights, H, W, 3)`` float32 against ``max_bytes``, and, as
+  missing pairs take memory too (NaN), against twice the present images plus
+  :data:`MISSING_SLACK_BYTES`: a sparse set (300 images on the diagonal of 300 × 300
+  pairs) is refused with a pointer to ``lazy=True`` and :meth:`UBOBTF.lookup`.
+
+Views and lights are the sorted distinct (θ, φ) pairs found; a (view, light) pair with no
+image is counted in ``defects["missing"]``, flagged ``False`` in :attr:`UBOBTF.present` and
+filled with NaN, never invented.
 
 UBO2014 (``read_ubo2014`` / ``write_ubo2014``)
 ----------------------------------------------
@@ -76,8 +86,9 @@ The cosine flag is reported, not applied (btf-extractor leaves it a stub).
 Differences from btf-extractor: rows must equal views × lights (it checks lights², the
 same for the 151 × 151 files), a component count of 0 and colour models other than 0 and
 11 are refused, every view's light list is read and differing lists are counted in
-``defects``, and every size is checked against the bytes left in the file (and
-``max_bytes``) before anything is allocated.
+``defects``, every size is checked against the bytes left in the file (and
+``max_bytes``) before anything is allocated, and factors whose values can overflow
+float32 (``Σₖ |U[r, k]| · maxₜ |S·V[t, k]|`` over 3.4 × 10³⁸) are refused.
 
 Errors
 ------
@@ -100,7 +111,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidBRDFData
-from ._files import atomic_write
+from ._files import atomic_write, check_zip_member, open_zip_member
 
 #: Default limit on the declared uncompressed bytes of an archive's members, on the decoded
 #: float32 array, and on the factor arrays of a UBO2014 file (8 GiB).
@@ -109,8 +120,26 @@ MAX_BYTES = 8 << 30
 MAX_MEMBER_BYTES = 64 << 20
 #: Refuse archives with more members than this.
 MAX_MEMBERS = 100_000
+#: Refuse UBO2003 sets of more (view, light) pairs than this (the database has 81 × 81;
+#: the pairs' presence mask alone takes a byte each).
+MAX_PAIRS = 1 << 24
 #: Refuse UBO2014 files with more channels than this.
 MAX_CHANNELS = 64
+#: Refuse a compressed UBO2003 member declaring more than this many times its compressed
+#: size (beyond its first MiB): JPEG data deflate about 1.0–1.1:1, a JPEG of one flat
+#: colour 6:1; zeros padding a JPEG deflate 1000:1.
+MAX_MEMBER_RATIO = 64
+#: Refuse a JPEG header claiming more pixels than this per byte its member takes in the
+#: archive (compressed: padding that deflates away does not count). Baseline
+#: Huffman coding spends at least 2 bits per 8×8 block and component (256 pixels per byte
+#: for greyscale, 170 for 4:2:0 colour; Pillow's optimised coding of a flat 4096² image
+#: measured 255 and 170); progressive DC scans can halve that. Photographs take 2–30.
+MAX_JPEG_PIXELS_PER_BYTE = 512
+#: Decoding all images may spend this much beyond twice the present images on the NaN
+#: images of missing (view, light) pairs.
+MISSING_SLACK_BYTES = 64 << 20
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+_LOG_FLOAT32_MAX = math.log(_FLOAT32_MAX)
 
 #: UBO2003 member names: θ/φ of the light, then of the view, integer degrees.
 NAME_FORMAT = "tl{:03d} pl{:03d} tv{:03d} pv{:03d}.jpg"
@@ -122,7 +151,10 @@ __all__ = [
     "BTFFileNotFound",
     "InvalidBTFData",
     "MAX_BYTES",
+    "MAX_JPEG_PIXELS_PER_BYTE",
     "MAX_MEMBER_BYTES",
+    "MAX_MEMBER_RATIO",
+    "MISSING_SLACK_BYTES",
     "NAME_FORMAT",
     "UBO2014BTF",
     "UBOBTF",
@@ -208,33 +240,100 @@ def _srgb_lut(linear: bool) -> np.ndarray:
     return codes.astype(np.float32)
 
 
-def _jpeg(data: bytes, member: str):
-    """An opened (not yet decoded) JPEG from ``data``."""
+def _jpeg(source, member: str):
+    """An opened (not yet decoded) JPEG from a binary stream."""
     from PIL import Image
 
     try:
-        image = Image.open(io.BytesIO(data), formats=["JPEG"])
+        image = Image.open(source, formats=["JPEG"])
+    except InvalidBTFData:
+        raise
     except Exception as exc:
         raise _Invalid(f"member {member!r} is not a readable JPEG ({type(exc).__name__}: "
                        f"{exc})") from None
     return image
 
 
-def _decode_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, shape: tuple[int, int],
-                   lut: np.ndarray, max_member_bytes: int) -> np.ndarray:
-    """The (H, W, 3) float32 image of one member, checked against ``shape`` (H, W)."""
-    data = archive.read(info)  # bounded by the declared size; CRC-checked
-    image = _jpeg(data, info.filename)
+def _member(path: Path, info: zipfile.ZipInfo, max_member_bytes: int):
+    """The member's bytes as a stream, inflated under a running cap (sizes checked first)."""
+    return open_zip_member(path, info, max_bytes=max_member_bytes, max_ratio=MAX_MEMBER_RATIO,
+                           error=InvalidBTFData)
+
+
+def _check_image(info: zipfile.ZipInfo, image, shape: tuple[int, int] | None,
+                 max_member_bytes: int) -> tuple[int, int]:
+    """(H, W) of a lazily opened JPEG, checked against the first image's ``shape``, the
+    per-image limit and the pixels its member's bytes can encode."""
     width, height = image.size
-    if (height, width) != shape:
+    if width < 1 or height < 1 or height * width * 3 > max_member_bytes:
+        raise _Invalid(f"member {info.filename!r} declares {width}×{height} pixels, over the "
+                       f"{max_member_bytes:,}-byte limit per image")
+    if shape is not None and (height, width) != shape:
         raise _Invalid(f"member {info.filename!r} is {width}×{height}; the first image is "
                        f"{shape[1]}×{shape[0]}")
-    if height * width * 3 > max_member_bytes:
-        raise _Invalid(f"member {info.filename!r} decodes to {width}×{height} pixels, over "
-                       f"the {max_member_bytes:,}-byte limit per image")
+    if width * height > MAX_JPEG_PIXELS_PER_BYTE * info.compress_size:
+        raise _Invalid(f"member {info.filename!r} claims {width}×{height} pixels in "
+                       f"{info.compress_size:,} bytes; a JPEG encodes at most "
+                       f"{MAX_JPEG_PIXELS_PER_BYTE} pixels per byte")
     if image.mode not in ("RGB", "L"):
         raise _Invalid(f"member {info.filename!r} has colour mode {image.mode}; RGB or L "
                        "expected")
+    return height, width
+
+
+def _image_shape(path: Path, entries: dict, max_member_bytes: int) -> tuple[int, int]:
+    """(H, W) shared by every member, from their JPEG headers alone (no pixel decoded)."""
+    shape = None
+    for key in sorted(entries):
+        info = entries[key]
+        with _member(path, info, max_member_bytes) as stream:
+            shape = _check_image(info, _jpeg(stream, info.filename), shape, max_member_bytes)
+    return shape
+
+
+def _entropy_bytes(data: bytes) -> int:
+    """Bytes of entropy-coded data in a JPEG's scans: what its pixels are decoded from.
+
+    Headers, tables, restart markers and anything after the end-of-image marker do not
+    count, so padding cannot make a header's claim look backed by data.
+    """
+    at, total, end = 2, 0, len(data)
+    while at + 4 <= end and data[at] == 0xFF:
+        marker = data[at + 1]
+        if marker == 0xD9:  # end of image
+            break
+        if marker == 0xFF or marker == 0x01 or 0xD0 <= marker <= 0xD7:  # fill, no length
+            at += 1 if marker == 0xFF else 2
+            continue
+        at += 2 + (data[at + 2] << 8 | data[at + 3])
+        if marker != 0xDA:  # not a start of scan
+            continue
+        start, restarts = at, 0
+        while (at := data.find(b"\xff", at)) >= 0 and at + 1 < end:
+            following = data[at + 1]
+            if following != 0 and not 0xD0 <= following <= 0xD7:
+                break
+            restarts += following != 0
+            at += 2
+        at = end if at < 0 else at
+        total += at - start - 2 * restarts
+    return total
+
+
+def _decode_member(path: Path, info: zipfile.ZipInfo, shape: tuple[int, int],
+                   lut: np.ndarray, max_member_bytes: int) -> np.ndarray:
+    """The (H, W, 3) float32 image of one member, checked against ``shape`` (H, W)."""
+    with _member(path, info, max_member_bytes) as stream:
+        data = stream.read()  # the whole member, so that its CRC is checked
+    image = _jpeg(io.BytesIO(data), info.filename)
+    height, width = _check_image(info, image, shape, max_member_bytes)
+    # The decoder fills what a truncated scan lacks with grey, without an error: the
+    # claim must be backed by scan data, not by the member's size.
+    coded = _entropy_bytes(data)
+    if width * height > MAX_JPEG_PIXELS_PER_BYTE * coded:
+        raise _Invalid(f"member {info.filename!r} claims {width}×{height} pixels from "
+                       f"{coded:,} bytes of scan data; a JPEG encodes at most "
+                       f"{MAX_JPEG_PIXELS_PER_BYTE} pixels per byte")
     try:
         image.load()
         if image.mode != "RGB":
@@ -329,18 +428,18 @@ class UBOBTF(_Directions):
 
     def _decode_all(self) -> np.ndarray:
         shape = (self.view_count, self.light_count) + self.image_shape
-        nbytes = math.prod(shape) * 4
-        if nbytes > self._max_bytes:
-            raise _Invalid(f"decoding all images needs {nbytes:,} bytes ({shape} float32), "
-                           f"over the {self._max_bytes:,}-byte limit (raise max_bytes, or "
-                           "read with lazy=True and use lookup())")
-        images = np.full(shape, np.nan, dtype=np.float32)
+        _check_dense(shape, int(self.present.sum()), self._max_bytes)
+        # Untouched pages take no memory: images land in the array one by one, and the
+        # missing pairs become NaN only once every member has decoded, so a member whose
+        # header claims more than its data hold fails before the array is filled for it.
+        images = np.empty(shape, dtype=np.float32)
         lut = self._lut()
         with zipfile.ZipFile(self.path) as archive:
             for (v, l), name in self._members.items():
-                images[v, l] = _decode_member(archive, archive.getinfo(name),
+                images[v, l] = _decode_member(self.path, archive.getinfo(name),
                                               self.image_shape[:2], lut,
                                               self._max_member_bytes)
+        images[~self.present] = np.nan
         return images
 
     def index(self, theta_l: int, phi_l: int, theta_v: int, phi_v: int) -> tuple[int, int]:
@@ -371,9 +470,9 @@ class UBOBTF(_Directions):
 
         def decode() -> np.ndarray:
             with zipfile.ZipFile(self.path) as archive:
-                name = self._members[(v, l)]
-                return _decode_member(archive, archive.getinfo(name), self.image_shape[:2],
-                                      self._lut(), self._max_member_bytes)
+                info = archive.getinfo(self._members[(v, l)])
+            return _decode_member(self.path, info, self.image_shape[:2], self._lut(),
+                                  self._max_member_bytes)
 
         return _wrap(self.path, decode)
 
@@ -390,7 +489,34 @@ class UBOBTF(_Directions):
         }
 
 
-def _scan_members(archive: zipfile.ZipFile, strict: bool, max_bytes: int,
+def _first_missing(present: np.ndarray, count: int) -> list[tuple[int, int]]:
+    """The first ``count`` (view, light) pairs without an image, row by row (no index
+    arrays over the whole mask)."""
+    found: list[tuple[int, int]] = []
+    for v, row in enumerate(present):
+        found += [(v, int(l)) for l in np.flatnonzero(~row)[: count - len(found)]]
+        if len(found) == count:
+            break
+    return found
+
+
+def _check_dense(shape: tuple[int, ...], present: int, max_bytes: int) -> None:
+    """Refuse a decoded array over ``max_bytes``, or one mostly made of missing images."""
+    nbytes = math.prod(shape) * 4
+    if nbytes > max_bytes:
+        raise _Invalid(f"decoding all images needs {nbytes:,} bytes ({shape} float32), "
+                       f"over the {max_bytes:,}-byte limit (raise max_bytes, or read with "
+                       "lazy=True and use lookup())")
+    held = present * math.prod(shape[2:]) * 4
+    if nbytes > 2 * held + MISSING_SLACK_BYTES:
+        pairs = shape[0] * shape[1]
+        raise _Invalid(f"only {present:,} of the {shape[0]} × {shape[1]} (view, light) pairs "
+                       f"have an image: all images as one array would take {nbytes:,} bytes, "
+                       f"{nbytes - held:,} of them NaN for the {pairs - present:,} missing "
+                       "pairs (read with lazy=True and use lookup())")
+
+
+def _scan_members(path: Path, archive: zipfile.ZipFile, strict: bool, max_bytes: int,
                   max_member_bytes: int) -> tuple[dict, list[str]]:
     """Validate the member list (names, angles, duplicates, sizes) before decoding anything."""
     infos = archive.infolist()
@@ -430,16 +556,13 @@ def _scan_members(archive: zipfile.ZipFile, strict: bool, max_bytes: int,
     if not entries:
         raise _Invalid("no 'tl%03d pl%03d tv%03d pv%03d.jpg' images in the archive")
     total = 0
+    size = path.stat().st_size
     for info in entries.values():
-        if info.flag_bits & 0x1:
-            raise _Invalid(f"member {info.filename!r} is encrypted")
-        if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED,
-                                      zipfile.ZIP_BZIP2, zipfile.ZIP_LZMA):
-            raise _Invalid(f"member {info.filename!r} uses unsupported compression method "
-                           f"{info.compress_type}")
         if info.file_size > max_member_bytes:
             raise _Invalid(f"member {info.filename!r} declares {info.file_size:,} uncompressed "
                            f"bytes, over the {max_member_bytes:,}-byte limit per member")
+        check_zip_member(path, info, size, max_bytes=max_member_bytes,
+                         max_ratio=MAX_MEMBER_RATIO, error=InvalidBTFData)
         total += info.file_size
     if total > max_bytes:
         raise _Invalid(f"the {len(entries)} images declare {total:,} uncompressed bytes in "
@@ -450,33 +573,27 @@ def _scan_members(archive: zipfile.ZipFile, strict: bool, max_bytes: int,
 def _read_ubo2003(path: Path, *, linear: bool, lazy: bool, strict: bool, max_bytes: int,
                   max_member_bytes: int) -> UBOBTF:
     with zipfile.ZipFile(path) as archive:
-        entries, skipped = _scan_members(archive, strict, max_bytes, max_member_bytes)
-        views = sorted({(tv, pv) for (_, _, tv, pv) in entries})
-        lights = sorted({(tl, pl) for (tl, pl, _, _) in entries})
-        view_index = {a: i for i, a in enumerate(views)}
-        light_index = {a: i for i, a in enumerate(lights)}
-        present = np.zeros((len(views), len(lights)), dtype=bool)
-        members: dict[tuple[int, int], str] = {}
-        for (tl, pl, tv, pv), info in sorted(entries.items()):
-            v, l = view_index[(tv, pv)], light_index[(tl, pl)]
-            present[v, l] = True
-            members[(v, l)] = info.filename
-        missing = [(*lights[l], *views[v]) for v, l in zip(*np.nonzero(~present))]
-        # The first image's header fixes (H, W); check sizes before decoding any pixels.
-        first = entries[min(entries)]
-        header = _jpeg(archive.read(first), first.filename)
-        width, height = header.size
-        if width < 1 or height < 1 or height * width * 3 > max_member_bytes:
-            raise _Invalid(f"member {first.filename!r} declares {width}×{height} pixels, "
-                           f"over the {max_member_bytes:,}-byte limit per image")
-        shape = (len(views), len(lights), height, width, 3)
-        if not lazy and math.prod(shape) * 4 > max_bytes:
-            raise _Invalid(f"decoding all images needs {math.prod(shape) * 4:,} bytes "
-                           f"({shape} float32), over the {max_bytes:,}-byte limit (raise "
-                           "max_bytes, or read with lazy=True and use lookup())")
+        entries, skipped = _scan_members(path, archive, strict, max_bytes, max_member_bytes)
+    views = sorted({(tv, pv) for (_, _, tv, pv) in entries})
+    lights = sorted({(tl, pl) for (tl, pl, _, _) in entries})
+    if len(views) * len(lights) > MAX_PAIRS:
+        raise _Invalid(f"{len(views):,} views × {len(lights):,} lights from {len(entries):,} "
+                       f"images: over the {MAX_PAIRS:,}-pair limit")
+    # Every member's header, then the whole array, before decoding any pixel.
+    height, width = _image_shape(path, entries, max_member_bytes)
+    if not lazy:
+        _check_dense((len(views), len(lights), height, width, 3), len(entries), max_bytes)
+    view_index = {a: i for i, a in enumerate(views)}
+    light_index = {a: i for i, a in enumerate(lights)}
+    present = np.zeros((len(views), len(lights)), dtype=bool)
+    members: dict[tuple[int, int], str] = {}
+    for (tl, pl, tv, pv), info in sorted(entries.items()):
+        v, l = view_index[(tv, pv)], light_index[(tl, pl)]
+        present[v, l] = True
+        members[(v, l)] = info.filename
     defects = {
-        "missing": len(missing),
-        "missing_pairs": [tuple(int(a) for a in m) for m in missing[:10]],
+        "missing": int(present.size - len(entries)),
+        "missing_pairs": [(*lights[l], *views[v]) for v, l in _first_missing(present, 10)],
         "skipped_members": list(skipped),
     }
     btf = UBOBTF(path=path, view_angles=np.array(views, dtype=np.int64).reshape(-1, 2),
@@ -633,9 +750,12 @@ class UBO2014BTF(_Directions):
     rotations : ndarray (n, 3, 3) or None
     height_map : ndarray (h, w) uint16 or None
     defects : dict
-        ``{"light_lists_differ": n, "non_finite_factors": n}``: views whose light list
-        differs from the first's, and NaN/inf factor elements (kept; they make the values
-        that use them non-finite, and values overflowing float32 become inf).
+        ``{"light_lists_differ": n, "non_finite_factors": n, "may_overflow": bool}``: views
+        whose light list differs from the first's; NaN/inf factor elements (kept; they make
+        the values that use them non-finite); and, for log-encoded values (colour model 11
+        or dynamic-range reduction), whether the factors allow a value whose ``exp`` is
+        beyond float32 (such texels decode to inf). Factors allowing raw values beyond
+        float32 are refused by the reader.
     """
 
     ANGLES_IN_DEGREES = False
@@ -852,6 +972,29 @@ def _element_size(value: int) -> np.dtype:
     return _DTYPES[value]
 
 
+def _finite_abs(block: np.ndarray) -> np.ndarray:
+    """|block| in float64 with NaN/inf as 0 (they are counted apart)."""
+    block = block.astype(np.float64)
+    return np.where(np.isfinite(block), np.abs(block), 0.0)
+
+
+def _value_bound(us: list, sxvs: list, rows: int = 1 << 12) -> float:
+    """The largest magnitude ``Σₖ U[r, k] · SxV[t, k]`` can reach from the finite factors:
+    exact over the rows r, by the largest |SxV| of each component over the texels t.
+    Computed in blocks of rows, so no float64 copy of a factor matrix is made."""
+    bound = 0.0
+    scales: dict[int, np.ndarray] = {}
+    with np.errstate(over="ignore", invalid="ignore"):
+        for u, sxv in zip(us, sxvs, strict=True):
+            if id(sxv) not in scales:  # FMF shares one S·V between the channels
+                scales[id(sxv)] = np.max([_finite_abs(sxv[i: i + rows]).max(axis=0)
+                                          for i in range(0, sxv.shape[0], rows)], axis=0)
+            scale = scales[id(sxv)]
+            for i in range(0, u.shape[0], rows):
+                bound = max(bound, float((_finite_abs(u[i: i + rows]) @ scale).max()))
+    return bound if math.isfinite(bound) else math.inf
+
+
 def _read_ubo2014(path: Path, max_bytes: int) -> UBO2014BTF:
     with open(path, "rb") as handle:
         s = _Stream(handle, path.stat().st_size, max_bytes)
@@ -945,6 +1088,12 @@ def _read_ubo2014(path: Path, max_bytes: int) -> UBO2014BTF:
     if model not in (0, 11) or (model == 11 and channels != 3):
         raise _Invalid(f"colour model {model} with {channels} channels is not supported "
                        "(0, or 11 = log-YUV with 3 channels)")
+    bound = _value_bound(us, sxvs)
+    if bound > _FLOAT32_MAX:
+        raise _Invalid(f"its factors reach values up to {bound:.3g} (Σₖ |U|·max|S·V|), beyond "
+                       f"float32's {_FLOAT32_MAX:.3g}: reconstructed texels would overflow")
+    log_encoded = model == 11 or extra.get("dynamic_range_reduction", False)
+    common["defects"]["may_overflow"] = bool(log_encoded and bound > _LOG_FLOAT32_MAX)
     return UBO2014BTF(path=path, signature=fourcc.decode(), header=common["header"],
                       view_angles=common["view_angles"], light_angles=common["light_angles"],
                       width=common["width"], height=common["height"], data_size=data_size,
