@@ -7,9 +7,11 @@ the factor-pack shaders and are compiled only when a scene has PRT objects.
 Per object, on the GPU: a batch of mesh corners (position, UV, vertex index), the
 transfer texture (RGBA32F, ``ceil(K/4)`` texels per vertex, :data:`TRANSFER_WIDTH`
 texels a row), the environment texture (one row per SH coefficient, padded to a
-multiple of 4, ``ceil(m/4)`` texels of spectral coefficients, already rotated into the
-object's frame and divided by the environment's white Y) and the albedo texture array
-(``m`` layers of R̃). Each is rebuilt only when its inputs change.
+multiple of 4, ``ceil(m/4)`` texels of spectral coefficients, already turned into the
+object's frame by ``prt.object_rotation`` (a reflection for a mirrored object) and
+divided by the scene's white Y, that of the world frame, as ``prt.vertex_xyz`` is) and
+the albedo texture array (``m`` layers of R̃). Each is rebuilt only when its inputs
+change.
 
 ``rgb=True`` draws classical RGB PRT (L̃ and the albedo reduced to linear sRGB, one
 layer), the baseline of the frame-time and accuracy comparisons.
@@ -270,6 +272,10 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
         key = PRTShaderKey(entry["arrays"].transfer.shape[1], entry["coefficients"], rgb,
                            output)
         shader = get_shader(key)
+        # Unbind first, so that bind() really binds: headless (llvmpipe), the first frames
+        # of a new scene drawn with the variant bound last drew nothing (~15 % of fresh
+        # scenes) until another shader had been bound; never since.
+        gpu.shader.unbind()
         shader.bind()
         params = gpu.types.GPUUniformBuf(params_block(
             view_projection, display, entry["transfer_width"], entry["albedo_size"]))
