@@ -2,8 +2,8 @@
  * irradiance coefficients Ê_j = Σ_k T̃_k L̃_kj of this vertex. T̃ (SM_PRT_SH values per
  * vertex, padded to texels of 4) comes from transfer_tex, texel v·SM_PRT_TEXELS + i laid
  * out row by row sm.sizes.x wide; L̃ from environment_tex, one row per SH coefficient
- * and SM_PRT_VEC4 texels of spectral coefficients per row (rotated into the object's
- * frame and divided by the environment's white Y on the CPU). Mirrors
+ * and SM_PRT_VEC4 texels of spectral coefficients per row (turned into the object's
+ * frame and divided by the world frame's white Y on the CPU). Mirrors
  * spectral_materials/core/prt.py irradiance(). */
 
 void main()

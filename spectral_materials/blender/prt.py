@@ -8,7 +8,8 @@ radiance transfer (the spectral PRT paper):
   attributes);
 * the environment is projected on SH × a spectral basis (``core.environment``), turned by
   the scene's rotation about +Z and, per object, into the object's frame with SH
-  rotation matrices — never projected again;
+  rotation matrices — never projected again; colours are divided by the scene's white
+  (world up), which turning into an object's frame leaves as it is;
 * the spectral basis is Peercy's linear model of the scene's PRT spectra: every PRT
   object's albedo × CMF and the environment's spectra (``core.albedo.prt_basis``);
 * each object's albedo becomes ``m`` layers of ``R̃`` (albedo × CMF on the basis), stored
@@ -291,7 +292,9 @@ def albedo_source(obj) -> AlbedoSource:
 
 @dataclass
 class SceneEnvironment:
-    """The projected environment (world frame, scene rotation applied) and its basis."""
+    """The projected environment (world frame, scene rotation applied), its basis, and
+    its white: the Y of a white Lambertian facing world up, what every PRT colour (the
+    float64 mirror and the viewport) is divided by."""
 
     key: tuple
     environment: core_environment.SpectralEnvironment
@@ -327,17 +330,37 @@ def scene_environment(scene) -> SceneEnvironment:
 
 
 def object_rotation(obj) -> np.ndarray:
-    """The rotation part of the object's world matrix (scale and shear removed)."""
-    m = np.array(obj.matrix_world)[:3, :3]
-    u, _, vt = np.linalg.svd(m)
-    r = u @ vt
-    if np.linalg.det(r) < 0:          # a mirrored object: keep a proper rotation
-        r = u @ np.diag([1.0, 1.0, -1.0]) @ vt
-    return r
+    """The orthogonal factor ``Q`` of the object's world matrix ``M = Q P`` (the polar
+    decomposition; ``P``, symmetric positive, is the scale and shear, dropped).
+
+    ``det Q = −1`` for a mirrored object (an odd number of negative scales): its frame
+    is a reflection of the world's, and the environment is reflected into it exactly (SH
+    bands follow O(3)); the nearest proper rotation instead flips one more axis and
+    lights parts of the object from the wrong side. ``M = R S`` with ``S`` diagonal (no
+    parent shear) gives ``Q = R sign(S)``.
+    """
+    u, _, vt = np.linalg.svd(np.array(obj.matrix_world, dtype=np.float64)[:3, :3])
+    return u @ vt
+
+
+def scale_anisotropy(obj) -> float:
+    """How far the object's world scale is from uniform: largest over smallest singular
+    value of its world matrix, minus 1 (0 for any rotation × uniform scale × mirror).
+
+    The transfer is baked in the object's unscaled frame and drawn with
+    :func:`object_rotation` only. Uniform scale changes neither normals nor occlusion, so
+    it is exact; non-uniform scale (or a parent's shear) tilts the normals and moves the
+    shadows, which the transfer does not know: colours are then an approximation
+    (docs/bench_prt_rotation.md measures it) until the scale is applied to the mesh and
+    the object baked again. :func:`transfer_status` says so.
+    """
+    s = np.linalg.svd(np.array(obj.matrix_world, dtype=np.float64)[:3, :3], compute_uv=False)
+    return float(s[0] / s[-1] - 1.0) if s[-1] > 0 else float("inf")
 
 
 def object_environment(obj, scene) -> core_environment.SpectralEnvironment:
-    """The scene environment in ``obj``'s frame, where its transfer was baked."""
+    """The scene environment in ``obj``'s frame, where its transfer was baked. Its ``up``
+    is world up in that frame, so its white (``core.prt.white_y``) stays the scene's."""
     state = scene_environment(scene)
     return state.environment.rotated(object_rotation(obj).T)
 
@@ -521,20 +544,27 @@ def vertex_uvs(mesh) -> np.ndarray:
 def vertex_xyz(obj, scene=None, depsgraph=None) -> np.ndarray:
     """Linear CIE XYZ (n_vertices, 3) of the outgoing radiance at each vertex of ``obj``
     under the scene's current environment, normalised to the environment's white (a
-    white, unoccluded Lambertian facing up has Y = 1). Float64; the viewport draws the same
-    numbers interpolated over the faces."""
+    white, unoccluded Lambertian facing world up has Y = 1, however the object is turned:
+    the scene's ``white_y``, which the viewport divides by too). Float64; the viewport
+    draws the same numbers interpolated over the faces.
+
+    The environment is turned into the object's frame by :func:`object_rotation`
+    (mirrors included); scale is not baked: uniform scale is exact, non-uniform scale an
+    approximation (:func:`scale_anisotropy`).
+    """
     scene = scene or bpy.context.scene
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     if obj is None or obj.type != "MESH":
         raise PRTError(f"'{getattr(obj, 'name', obj)}' is not a mesh")
     transfer, uv = _evaluated_arrays(obj, depsgraph)
+    state = scene_environment(scene)
     environment = object_environment(obj, scene)
     if transfer.shape[1] != environment.coefficients.shape[0]:
         raise PRTError(f"Object '{obj.name}' was baked with {transfer.shape[1]} SH "
                        f"coefficients, the environment has {environment.coefficients.shape[0]}"
                        " (SH bands changed): bake it again")
     weights = core_albedo.sample_layers(albedo_layers(obj, scene).layers, uv)
-    return core_prt.vertex_xyz(transfer, environment, weights)
+    return core_prt.vertex_xyz(transfer, environment, weights, white_y=state.white_y)
 
 
 def environment_white_xyz(scene) -> np.ndarray:
@@ -632,13 +662,22 @@ def vertex_reference_xyz(obj, scene=None, depsgraph=None, *, rays: int = 4096,
         visible, rays=rays, seed=seed, offset=offset)
 
 
+#: Scale anisotropy (:func:`scale_anisotropy`) the panel lets pass as uniform (float32
+#: matrices and typed-in scales carry ~1e-7).
+ANISOTROPY_TOLERANCE = 1e-4
+
+
 def transfer_status(obj) -> str:
-    """One line for the panel: baked (how), stale, or not baked."""
+    """One line for the panel: baked (how), stale, not baked, or baked but approximate
+    (a non-uniform scale, which the bake does not include)."""
     mesh = obj.data
     state = bake.transfer_state(mesh)
     if state == "absent":
         return "Not baked"
     if state == "stale":
         return "Stale: the mesh changed since the bake; bake again"
+    if scale_anisotropy(obj) > ANISOTROPY_TOLERANCE:
+        return "Approximate: the object's scale is not uniform and the transfer was baked " \
+            "without it; apply the scale and bake again"
     return f"Baked: {len(mesh.vertices)} vertices × {len(bake.transfer_names(mesh))} SH " \
         "coefficients"

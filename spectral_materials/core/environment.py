@@ -32,7 +32,7 @@ JCGT 10(3).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -48,9 +48,20 @@ CIE_SKIES = {
 SUN_HALF_ANGLE = 0.00465
 
 
+def _world_up() -> np.ndarray:
+    return np.array([0.0, 0.0, 1.0])
+
+
 @dataclass
 class SpectralEnvironment:
-    """SH × spectral coefficients of an environment, and how they were made."""
+    """SH × spectral coefficients of an environment, and how they were made.
+
+    ``up`` is the world's up (+z of the frame the light was defined in) as seen in the
+    frame the coefficients are now in: +z until :meth:`rotated` turns the environment into
+    another frame (an object's, where its transfer was baked). The colour white is the
+    light on a white Lambertian facing *world* up (``core.prt.white_y``), so it must not
+    change when the environment is merely expressed in a turned frame.
+    """
 
     coefficients: np.ndarray          # (K, m): SH index first
     bands: int
@@ -58,12 +69,18 @@ class SpectralEnvironment:
     basis: np.ndarray | None          # (L, m) or None (m = L wavelength samples)
     window: str
     source: str
+    up: np.ndarray = field(default_factory=_world_up)
 
     def rotated(self, rotation: np.ndarray) -> SpectralEnvironment:
-        """The environment turned by ``rotation`` (3 × 3), by SH rotation matrices."""
-        coefficients = sh.rotate(self.coefficients.T, rotation).T
+        """The same light in a frame turned by ``rotation`` (3 × 3 orthogonal), by SH
+        rotation matrices: ``L'(ω) = L(Rᵀω)``, and world up goes to ``R up`` with it, so
+        the white is unchanged. A reflection (det −1: a mirrored object's frame) is exact
+        too: SH band ``l`` then follows the O(3) representation (``core.sh``). Turning
+        about +z (the scene's environment rotation) leaves ``up`` at +z."""
+        rotation = np.asarray(rotation, dtype=np.float64)
+        coefficients = sh.rotate(self.coefficients.T, rotation).T     # checks orthogonality
         return SpectralEnvironment(coefficients, self.bands, self.wavelengths, self.basis,
-                                   self.window, self.source)
+                                   self.window, self.source, rotation @ self.up)
 
     def radiance(self, directions: np.ndarray) -> np.ndarray:
         """The band-limited radiance spectra (N, L) along world ``directions`` (N, 3)."""

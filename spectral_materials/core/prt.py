@@ -9,7 +9,9 @@ directions shared by every vertex, so that the SH basis is evaluated once:
     T̃_k = Σ_r V(ω_r) max(n·ω_r, 0) Y_k(ω_r) · 4π / R.
 
 Directions are a spherical Fibonacci set (deterministic, nearly uniform), in the
-object's own frame: the environment is rotated into that frame at draw time.
+object's own frame: the environment is rotated into that frame at draw time. Colours are
+divided by the white of the *world* frame (a white Lambertian facing world up), which
+that rotation must not change: :func:`white_y` follows the environment's ``up``.
 
 References
 ----------
@@ -72,13 +74,16 @@ def albedo_weights(albedo: np.ndarray, wavelengths: np.ndarray,
 
 
 def white_y(environment) -> float:
-    """Y of a white, unoccluded Lambertian facing +z under ``environment``: the reference
-    every PRT colour is divided by (the environment's white, as the protocol's light)."""
+    """Y of a white, unoccluded Lambertian facing the world's up under ``environment``: the
+    reference every PRT colour is divided by (the environment's white, as the protocol's
+    light). World up is ``environment.up`` (+z until the environment is turned into an
+    object's frame), so turning the environment leaves the white unchanged."""
     from . import sh
 
     white = albedo_weights(np.ones(environment.wavelengths.size), environment.wavelengths,
                            environment.basis)
-    up = sh.zonal_to_sh(sh.clamped_cosine_zonal(environment.bands), np.array([0.0, 0.0, 1.0]))
+    up = sh.zonal_to_sh(sh.clamped_cosine_zonal(environment.bands),
+                        np.asarray(environment.up, dtype=np.float64))
     value = float((up @ environment.coefficients) @ white[:, 1])
     if not value > 0:
         raise ValueError("the environment sends no light onto an upward surface; it has no "
@@ -86,9 +91,17 @@ def white_y(environment) -> float:
     return value
 
 
-def irradiance(transfer: np.ndarray, environment) -> np.ndarray:
-    """Ê (V, m) = T̃ · L̃ / white Y: the spectral irradiance coefficients the vertex shader
-    computes, in the environment's spectral basis (``transfer`` in its frame)."""
+def _white(environment, given: float | None) -> float:
+    """The Y to divide by: ``given`` (checked) or the environment's own white."""
+    if given is None:
+        return white_y(environment)
+    value = float(given)
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"white_y must be finite and > 0, got {given!r}")
+    return value
+
+
+def _check_transfer(transfer: np.ndarray, environment) -> np.ndarray:
     transfer = np.asarray(transfer, dtype=np.float64)
     if transfer.ndim != 2 or transfer.shape[1] != environment.coefficients.shape[0]:
         raise ValueError(f"transfer must be (V, {environment.coefficients.shape[0]}), got "
@@ -96,13 +109,29 @@ def irradiance(transfer: np.ndarray, environment) -> np.ndarray:
     if not np.isfinite(transfer).all():
         raise ValueError(f"transfer has {int((~np.isfinite(transfer)).sum())} non-finite "
                          "values")
-    return transfer @ environment.coefficients / white_y(environment)
+    return transfer
 
 
-def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndarray:
+def irradiance(transfer: np.ndarray, environment, *, white_y: float | None = None
+               ) -> np.ndarray:
+    """Ê (V, m) = T̃ · L̃ / white Y: the spectral irradiance coefficients the vertex shader
+    computes, in the environment's spectral basis (``transfer`` in its frame).
+
+    ``white_y``: the Y to divide by, the white of the world-frame environment (the scene's:
+    ``SceneEnvironment.white_y``); None takes :func:`white_y` of ``environment``, the same
+    number whatever frame it was turned into.
+    """
+    transfer = _check_transfer(transfer, environment)
+    return transfer @ environment.coefficients / _white(environment, white_y)
+
+
+def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray, *,
+               white_y: float | None = None) -> np.ndarray:
     """Linear XYZ (V, 3) leaving diffuse vertices: ``(T̃ · L̃) · R̃``, normalised so that a
-    white, unoccluded Lambertian facing straight up under the same environment has Y = 1
-    (the environment's white is the reference, as the measurement protocol's light is).
+    white, unoccluded Lambertian facing the world's up under the same environment has
+    Y = 1 (the environment's white is the reference, as the measurement protocol's light
+    is). The white belongs to the world frame: turning ``environment`` into an object's
+    frame does not change it (see :func:`irradiance` for ``white_y``).
 
     ``transfer`` (V, K) from :func:`transfer_from_visibility` in the environment's frame,
     ``environment`` a ``core.environment.SpectralEnvironment``, ``albedo`` (L,) on its
@@ -110,7 +139,7 @@ def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndar
     Negative components, left by the ringing of a band-limited sharp light, are clipped to
     0 (as the shader does): no physical spectrum has a negative XYZ.
     """
-    e = irradiance(transfer, environment)
+    e = irradiance(transfer, environment, white_y=white_y)
     albedo = np.asarray(albedo, dtype=np.float64)
     if albedo.ndim == 3:
         if albedo.shape != (len(e), e.shape[1], 3):
@@ -153,16 +182,15 @@ def rgb_albedo(albedo: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
     return (np.asarray(albedo, dtype=np.float64) @ weights) @ to_rgb.T / white
 
 
-def rgb_vertex_xyz(transfer: np.ndarray, environment, albedo_rgb: np.ndarray) -> np.ndarray:
+def rgb_vertex_xyz(transfer: np.ndarray, environment, albedo_rgb: np.ndarray, *,
+                   white_y: float | None = None) -> np.ndarray:
     """XYZ (V, 3) of RGB PRT: ``((T̃ · L̃_rgb) ⊙ albedo_rgb)`` back to XYZ, normalised by
-    the same white as :func:`vertex_xyz` (a white albedo gives identical results)."""
+    the same world-frame white as :func:`vertex_xyz` (a white albedo gives identical
+    results)."""
     from . import colour_pipeline
 
-    transfer = np.asarray(transfer, dtype=np.float64)
-    if transfer.ndim != 2 or transfer.shape[1] != environment.coefficients.shape[0]:
-        raise ValueError(f"transfer must be (V, {environment.coefficients.shape[0]}), got "
-                         f"{transfer.shape}")
-    rgb_e = transfer @ rgb_environment(environment) / white_y(environment)
+    transfer = _check_transfer(transfer, environment)
+    rgb_e = transfer @ rgb_environment(environment) / _white(environment, white_y)
     rgb = rgb_e * np.asarray(albedo_rgb, dtype=np.float64)
     return np.clip(rgb @ np.linalg.inv(colour_pipeline.xyz_to_linear_srgb_matrix()).T, 0.0,
                    None)

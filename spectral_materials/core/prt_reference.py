@@ -14,8 +14,9 @@ the transfer was baked from, and many rays:
   on a stratified grid per vertex (pdf cos θ/π, so the estimator is ``π/R Σ L V``);
 * sun discs are far too small to be hit by random rays: each is a directional light,
   ``E_sun(λ) max(n·s, 0) V(s)``, with one shadow ray;
-* XYZ is divided by the Y of a white, unoccluded Lambertian facing +z under the same
-  environment (as :func:`prt.vertex_xyz` does), that white computed deterministically
+* XYZ is divided by the Y of a white, unoccluded Lambertian facing world up (``up``,
+  +z unless the environment was turned into another frame) under the same environment
+  (as :func:`prt.vertex_xyz` does), that white computed deterministically
   (a dense Gauss–Legendre rule over the upper hemisphere plus the suns, or the exact sum
   an equirectangular map provides), so that it carries no Monte Carlo noise.
 
@@ -62,9 +63,12 @@ class ReferenceEnvironment:
         a surface facing it.
     source : str
     up_irradiance : ndarray (L,) or None
-        ``∫_{z>0} radiance(ω) cos θ dω`` when the source knows it exactly (an
+        ``∫_{up·ω>0} radiance(ω) (up·ω) dω`` when the source knows it exactly (an
         equirectangular map sums it pixel by pixel); None lets :func:`white_irradiance`
         integrate ``radiance`` with a dense quadrature. Suns excluded.
+    up : ndarray (3,)
+        World up in this environment's frame: +z until :meth:`rotated` turns it. The
+        white faces it, so a turned environment keeps the world's white.
     """
 
     wavelengths: np.ndarray
@@ -72,6 +76,7 @@ class ReferenceEnvironment:
     suns: tuple = ()
     source: str = "reference"
     up_irradiance: np.ndarray | None = field(default=None)
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     def __post_init__(self) -> None:
         wl = spectra.check_wavelengths(self.wavelengths)
@@ -100,11 +105,16 @@ class ReferenceEnvironment:
                 raise ValueError(f"up_irradiance must be {wl.size} finite values, got shape "
                                  f"{up.shape}")
             self.up_irradiance = up
+        up = np.asarray(self.up, dtype=np.float64)
+        if up.shape != (3,) or not np.isfinite(up).all() or \
+                not abs(float(np.linalg.norm(up)) - 1.0) < 1e-9:
+            raise ValueError(f"up must be a finite unit 3-vector, got {self.up!r}")
+        self.up = up
 
     def rotated(self, rotation: np.ndarray) -> ReferenceEnvironment:
-        """The environment turned by ``rotation`` (3 × 3), as
-        ``SpectralEnvironment.rotated``: ``L'(ω) = L(Rᵀω)``, suns at ``R s``.
-        ``up_irradiance`` is kept for turns about +z only (else recomputed by quadrature)."""
+        """The same light in a frame turned by ``rotation`` (3 × 3), as
+        ``SpectralEnvironment.rotated``: ``L'(ω) = L(Rᵀω)``, suns at ``R s``, world up at
+        ``R up`` — so the white (and ``up_irradiance``, the light about up) is unchanged."""
         rotation = np.asarray(rotation, dtype=np.float64)
         if rotation.shape != (3, 3) or not np.isfinite(rotation).all() or \
                 not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-9) or \
@@ -115,11 +125,10 @@ class ReferenceEnvironment:
         def turned(directions: np.ndarray) -> np.ndarray:
             return radiance(np.asarray(directions, dtype=np.float64) @ rotation)   # Rᵀ ω
 
-        about_z = np.allclose(rotation[:, 2], [0.0, 0.0, 1.0], atol=1e-12)
         return ReferenceEnvironment(self.wavelengths, turned,
                                     tuple((rotation @ d, e) for d, e in self.suns),
-                                    self.source + " (rotated)",
-                                    self.up_irradiance if about_z else None)
+                                    self.source + " (rotated)", self.up_irradiance,
+                                    rotation @ self.up)
 
 
 def _radiance(environment: ReferenceEnvironment, directions: np.ndarray) -> np.ndarray:
@@ -137,12 +146,13 @@ def _radiance(environment: ReferenceEnvironment, directions: np.ndarray) -> np.n
 
 def white_irradiance(environment: ReferenceEnvironment,
                      order: int = WHITE_QUADRATURE) -> np.ndarray:
-    """Spectral irradiance (L,) on an unoccluded surface facing +z: the white's light.
+    """Spectral irradiance (L,) on an unoccluded surface facing world up
+    (``environment.up``, +z unless turned): the white's light.
 
     ``environment.up_irradiance`` when given, else ``∫_0^1 ∫_0^{2π} L(ω) z dφ dz`` by
-    Gauss–Legendre in ``z = cos θ`` (``order`` nodes) × the midpoint rule in φ
+    Gauss–Legendre in ``z = cos θ`` about up (``order`` nodes) × the midpoint rule in φ
     (``2·order`` azimuths) — deterministic, and very accurate for smooth skies — plus
-    ``E_sun max(s_z, 0)`` per sun.
+    ``E_sun max(s·up, 0)`` per sun.
     """
     total = np.zeros(environment.wavelengths.size)
     if environment.up_irradiance is not None:
@@ -156,16 +166,19 @@ def white_irradiance(environment: ReferenceEnvironment,
         wz = 0.5 * weights * z                        # the cosine factor
         phi = (np.arange(2 * order) + 0.5) * (np.pi / order)
         rows_per_block = max(1, RAYS_PER_BLOCK // (2 * order))
+        # The hemisphere about world up; for up = +z this frame is the identity.
+        tangent, bitangent = _frames(environment.up[None])
+        frame = np.concatenate([tangent, bitangent, environment.up[None]])
         for begin in range(0, order, rows_per_block):
             zs = z[begin: begin + rows_per_block]
             r = np.sqrt(np.clip(1.0 - zs * zs, 0.0, None))
             dirs = np.stack(np.broadcast_arrays(r[:, None] * np.cos(phi), r[:, None] *
                                                 np.sin(phi), zs[:, None]), axis=-1)
-            values = _radiance(environment, dirs.reshape(-1, 3))
+            values = _radiance(environment, dirs.reshape(-1, 3) @ frame)
             w = np.repeat(wz[begin: begin + rows_per_block] * (np.pi / order), 2 * order)
             total += w @ values
     for direction, irradiance in environment.suns:
-        total += irradiance * max(float(direction[2]), 0.0)
+        total += irradiance * max(float(direction @ environment.up), 0.0)
     return total
 
 
@@ -290,7 +303,8 @@ def reference_vertex_xyz(points: np.ndarray, normals: np.ndarray, albedo: np.nda
 
     ``L_o(λ) = albedo(λ)/π [∫_H L(ω, λ) V(ω) cos θ dω + Σ_suns E_s(λ) max(n·s, 0) V(s)]``,
     ``XYZ = Σ_λ L_o(λ) m̄(λ) Δλ`` (``spectra.sample_weights``), divided by the Y of a white,
-    unoccluded Lambertian facing +z under the same environment (:func:`white_irradiance`),
+    unoccluded Lambertian facing world up (``environment.up``) under the same environment
+    (:func:`white_irradiance`),
     so that it compares directly with :func:`prt.vertex_xyz`.
 
     Parameters
@@ -348,7 +362,7 @@ def irradiance_xyz(irradiance: np.ndarray, albedo: np.ndarray,
                    environment: ReferenceEnvironment) -> np.ndarray:
     """XYZ (N, 3) of diffuse surfaces with spectral ``irradiance`` (N, L) and ``albedo``
     ((L,) or (N, L)): ``Σ_λ E(λ) albedo(λ) m̄(λ) Δλ / π`` (``prt.albedo_weights``, the PRT's
-    own R) over the Y of the white facing +z under ``environment``."""
+    own R) over the Y of the white facing world up under ``environment``."""
     wl = environment.wavelengths
     weights = prt.albedo_weights(np.ones(wl.size), wl)                        # (L, 3)
     white_y = float(white_irradiance(environment) @ weights[:, 1])

@@ -87,3 +87,64 @@ def test_albedo_layers_on_the_prt_basis_give_vertex_xyz():
         xyz = (transfer @ env.coefficients) @ r / white_y
         np.testing.assert_allclose(xyz, prt.vertex_xyz(transfer, env, patch), rtol=1e-5)
         np.testing.assert_allclose(xyz, prt.vertex_xyz(transfer, full, patch), rtol=1e-5)
+
+
+def _euler_xyz(x_deg: float, y_deg: float, z_deg: float) -> np.ndarray:
+    """Blender's XYZ Euler rotation matrix (Rz Ry Rx)."""
+    x, y, z = np.radians([x_deg, y_deg, z_deg])
+    rx = np.array([[1, 0, 0], [0, np.cos(x), -np.sin(x)], [0, np.sin(x), np.cos(x)]])
+    ry = np.array([[np.cos(y), 0, np.sin(y)], [0, 1, 0], [-np.sin(y), 0, np.cos(y)]])
+    rz = np.array([[np.cos(z), -np.sin(z), 0], [np.sin(z), np.cos(z), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+#: Object frames: turns about each axis, a compound turn, and mirrors (det −1).
+FRAMES = {
+    "x57": _euler_xyz(57, 0, 0), "x143": _euler_xyz(143, 0, 0), "y-110": _euler_xyz(0, -110, 0),
+    "z70": _euler_xyz(0, 0, 70), "compound": _euler_xyz(57, -31, 143),
+    "mirror x": np.diag([-1.0, 1.0, 1.0]),
+    "mirror x, compound": _euler_xyz(57, -31, 143) @ np.diag([-1.0, 1.0, 1.0]),
+    "inversion": -np.eye(3),
+}
+
+
+@pytest.mark.parametrize("frame", FRAMES)
+def test_turning_the_environment_into_an_object_frame_keeps_the_world_white(frame):
+    """The white is the world's (a white Lambertian facing world up): the same number
+    however the environment is turned, and a vertex gives the same colour whether its
+    transfer and the light are both in the world frame or both in the object's frame —
+    for reflections too (a mirrored object's frame)."""
+    q = FRAMES[frame]
+    env = environment.sky_environment("FL2", WL, sky="clear", sun_direction=(0.3, 0.2, 0.9),
+                                      sun_fraction=0.4, bands=5, window="none")
+    turned = env.rotated(q.T)                      # the light in the object's frame
+    np.testing.assert_allclose(turned.up, q.T @ [0.0, 0.0, 1.0], atol=1e-15)
+    assert prt.white_y(turned) == pytest.approx(prt.white_y(env), rel=1e-12)
+    normals_object = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, -0.8, 0.6],
+                               [0.36, 0.48, -0.8]])
+    cosine = sh.clamped_cosine_zonal(5)
+    in_object = sh.zonal_to_sh(cosine, normals_object)
+    in_world = sh.zonal_to_sh(cosine, normals_object @ q.T)          # world normals q n
+    albedo = spectra.colorchecker(13, WL)
+    expected = prt.vertex_xyz(in_world, env, albedo)
+    np.testing.assert_allclose(prt.vertex_xyz(in_object, turned, albedo), expected,
+                               rtol=1e-10, atol=1e-12)
+    rgb = prt.rgb_albedo(albedo, WL)
+    np.testing.assert_allclose(prt.rgb_vertex_xyz(in_object, turned, rgb),
+                               prt.rgb_vertex_xyz(in_world, env, rgb), rtol=1e-10, atol=1e-12)
+
+
+def test_an_explicit_white_is_what_colours_are_divided_by():
+    env = environment.sky_environment("D65", WL, sky="overcast", bands=3, window="none")
+    transfer = sh.zonal_to_sh(sh.clamped_cosine_zonal(3), np.array([[0.0, 0.6, 0.8]]))
+    own = prt.irradiance(transfer, env)
+    np.testing.assert_allclose(prt.irradiance(transfer, env, white_y=2 * prt.white_y(env)),
+                               own / 2, rtol=1e-12)
+    np.testing.assert_allclose(prt.vertex_xyz(transfer, env, np.ones(WL.size),
+                                              white_y=prt.white_y(env)),
+                               prt.vertex_xyz(transfer, env, np.ones(WL.size)), rtol=1e-12)
+    for bad in (0.0, -1.0, np.nan, np.inf):
+        with pytest.raises(ValueError, match="white_y must be"):
+            prt.irradiance(transfer, env, white_y=bad)
+        with pytest.raises(ValueError, match="white_y must be"):
+            prt.rgb_vertex_xyz(transfer, env, np.ones(3), white_y=bad)

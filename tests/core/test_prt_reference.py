@@ -220,3 +220,42 @@ def test_rotated_turns_like_the_sh_environment():
     np.testing.assert_allclose(turned.suns[0][0], rotation @ sun, atol=1e-15)
     with pytest.raises(ValueError, match="rotation must be"):
         reference.rotated(np.diag([1.0, 1.0, -1.0]))
+
+
+def test_a_turned_reference_keeps_the_world_white():
+    """The reference's white faces world up too: turning the environment into an object's
+    frame leaves the white's light as it was (the quadrature runs about the turned up;
+    an equirectangular map's exact sum and the suns follow)."""
+    angle = np.radians(143.0)
+    rotation = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(angle), -np.sin(angle)],
+                         [0.0, np.sin(angle), np.cos(angle)]])
+    sky = environment.sky_reference("D65", WL, sky="clear", sun_direction=(0.3, 0.2, 0.9),
+                                    sun_fraction=0.4)
+    turned = sky.rotated(rotation)
+    np.testing.assert_allclose(turned.up, rotation[:, 2], atol=1e-15)
+    # Up to the azimuthal midpoint rule, which starts at another φ in the turned frame.
+    np.testing.assert_allclose(prt_reference.white_irradiance(turned),
+                               prt_reference.white_irradiance(sky), rtol=1e-6)
+    spd = spectra.illuminant("D50", WL)
+    uniform = environment.equirect_reference(np.broadcast_to(spd, (8, 16, WL.size)), WL)
+    np.testing.assert_array_equal(prt_reference.white_irradiance(uniform.rotated(rotation)),
+                                  prt_reference.white_irradiance(uniform))
+    # Colours: a vertex in the object frame under the light turned into that frame equals
+    # the vertex in the world frame (its sun alone, seen through a shadow ray that only
+    # the sun's direction passes: no Monte Carlo noise to compare through).
+    normal_world = _unit([[0.5, -0.1, 0.8]])
+    in_object = sky.rotated(rotation.T)
+
+    def only(sun):
+        return lambda origins, directions: np.all(np.isclose(directions, sun, atol=1e-12),
+                                                  axis=1)
+
+    world = prt_reference.reference_vertex_xyz(np.zeros((1, 3)), normal_world, WHITE, sky,
+                                               only(sky.suns[0][0]), rays=16)
+    local = prt_reference.reference_vertex_xyz(np.zeros((1, 3)), normal_world @ rotation,
+                                               WHITE, in_object, only(in_object.suns[0][0]),
+                                               rays=16)
+    assert world[0, 1] > 0.1
+    np.testing.assert_allclose(local, world, rtol=1e-6)
+    with pytest.raises(ValueError, match="up must be"):
+        prt_reference.ReferenceEnvironment(WL, sky.radiance, up=np.array([0.0, 0.0, 2.0]))
