@@ -149,3 +149,14 @@ def test_bad_arguments_are_refused():
         cp.fit_packs(tensor, 2, method="magic")
     with pytest.raises(ValueError, match="max_packs"):
         cp.fit_packs(tensor, 0)
+
+
+def test_default_error_floor_sits_above_the_dtype_round_off():
+    assert cp.default_error_floor(np.float64) == 1e-7
+    assert cp.default_error_floor(np.float32) == pytest.approx(9.5367e-7, rel=1e-4)
+    # An exact rank-1 float32 tensor is already at its floor after one pack, whatever
+    # BLAS kernel this CPU selects.
+    factors = random_kruskal((6, 7, 5), 1, seed=3)
+    tensor = cp.reconstruct(factors).astype(np.float32)
+    _, history = cp.fit_packs(tensor, 4, pack_size=2, seed=0)
+    assert len(history.error_sq) == 1
