@@ -1,12 +1,23 @@
-"""The GPU pipeline state every spectral draw sets for itself.
+"""The GPU state every spectral draw sets for itself.
 
-Blender's ``gpu`` state (face culling, winding, blending, colour mask, scissor) belongs to
-the GPU context, not to a framebuffer or a file: whatever the last draw left — EEVEE, an
-overlay, another add-on — is still set when an offscreen is bound or another .blend is
-loaded. The demo's main job died on a clean machine this way: with back-face culling and
-the winding flipped left behind, a plane facing the camera drew no pixel
-(``tests/blender/test_gpu_state.py`` recreates it). So every draw states all the state it
-depends on, and puts back what it can read afterwards.
+Blender's ``gpu`` state belongs to the GPU context, not to a framebuffer, a scene or a
+file: whatever the last draw left is still set when an offscreen is bound or another
+.blend is loaded. Two pieces of it bite:
+
+* **The bound shader.** The context remembers the last bound shader by its address, and
+  ``shader.bind()`` does nothing when asked for the shader it believes is bound. Our
+  variants are freed on every file load (``draw.reset``); a variant compiled afterwards
+  can be allocated at the freed one's address, and its ``bind()`` then binds nothing:
+  the draw runs the deleted program and covers no pixel. This is what killed the demo's
+  main job on a clean machine (the Metacow plane, after earlier sections had loaded
+  files in the same process); ``scripts/check_fresh_scene_draws.py`` counts how often.
+  Every draw therefore starts with no shader bound, and ``shaders.clear_cache`` unbinds
+  before it frees.
+* **The pipeline state** (face culling, winding, blending, colour mask, scissor): with
+  back-face culling and the winding flipped left behind, a plane facing the camera draws
+  nothing either. Every draw states all of it, and puts back what it can read.
+
+``tests/blender/test_gpu_state.py`` recreates both.
 """
 
 from __future__ import annotations
@@ -17,7 +28,8 @@ from collections.abc import Iterator
 
 @contextlib.contextmanager
 def spectral_draw_state() -> Iterator[None]:
-    """Depth-tested, opaque, two-sided drawing into the whole bound framebuffer.
+    """No shader bound; depth-tested, opaque, two-sided drawing into the whole bound
+    framebuffer.
 
     Both faces draw (mirrored objects and open meshes are shaded from either side, as
     the shaders flip normals themselves), counter-clockwise is front, no blending, all
@@ -27,6 +39,7 @@ def spectral_draw_state() -> Iterator[None]:
     """
     import gpu
 
+    gpu.shader.unbind()
     state = gpu.state
     depth_test, depth_mask, blend = state.depth_test_get(), state.depth_mask_get(), \
         state.blend_get()

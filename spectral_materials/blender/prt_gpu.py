@@ -272,10 +272,6 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
         key = PRTShaderKey(entry["arrays"].transfer.shape[1], entry["coefficients"], rgb,
                            output)
         shader = get_shader(key)
-        # Unbind first, so that bind() really binds: headless (llvmpipe), the first frames
-        # of a new scene drawn with the variant bound last drew nothing (~15 % of fresh
-        # scenes) until another shader had been bound; never since.
-        gpu.shader.unbind()
         shader.bind()
         params = gpu.types.GPUUniformBuf(params_block(
             view_projection, display, entry["transfer_width"], entry["albedo_size"]))

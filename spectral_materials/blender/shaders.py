@@ -148,4 +148,10 @@ def cached_variants() -> list[ShaderKey]:
 
 
 def clear_cache() -> None:
+    # Blender's GPU context remembers the last bound shader by address; freeing the
+    # variants while one is bound leaves that address behind (see gpu_state).
+    if _CACHE:
+        import gpu
+
+        gpu.shader.unbind()
     _CACHE.clear()
