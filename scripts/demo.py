@@ -35,6 +35,7 @@ import demo_btf  # noqa: E402
 import demo_eevee  # noqa: E402  (scripts/, next to this file)
 import demo_gpu  # noqa: E402
 import demo_prt  # noqa: E402
+from demo_sizes import DemoSizes, sizes_for  # noqa: E402
 
 from spectral_materials import blender as addon  # noqa: E402
 from spectral_materials.blender import eevee, jobs, sources, storage  # noqa: E402
@@ -50,7 +51,7 @@ MATERIALS = {
 }
 
 
-def build_scene(theta_cells: int) -> None:
+def build_scene(sizes: DemoSizes) -> None:
     """Spheres and a Suzanne with ColorChecker materials, a D65 sun and an FL2 point light."""
     bpy.ops.wm.read_homefile(use_factory_startup=True)
     for obj in list(bpy.data.objects):
@@ -68,16 +69,19 @@ def build_scene(theta_cells: int) -> None:
         bpy.ops.object.shade_smooth()
         obj = bpy.context.active_object
         obj.name = name.split()[1].capitalize() if name != "Teal brushed" else "Suzanne"
+        if sizes.max_packs is not None:
+            packs = min(packs, sizes.max_packs)
         obj.data.materials.append(_material(name, model, scalars, patch, specular, packs,
-                                            theta_cells))
+                                            sizes.theta_cells))
     # Left out on purpose: a hidden object and a material nobody uses.
     bpy.ops.mesh.primitive_cube_add(location=(0.0, 3.0, 1.0))
     spare = bpy.context.active_object
     spare.name = "Spare cube"
-    spare.data.materials.append(_material("Spare", "LAMBERT", {}, "2", None, 1, theta_cells))
+    spare.data.materials.append(_material("Spare", "LAMBERT", {}, "2", None, 1,
+                                         sizes.theta_cells))
     spare.hide_render = True
     spare.hide_set(True)
-    _material("Unused swatch", "LAMBERT", {}, "7", None, 1, theta_cells)
+    _material("Unused swatch", "LAMBERT", {}, "7", None, 1, sizes.theta_cells)
     bpy.ops.mesh.primitive_plane_add(size=20.0)
     sun = bpy.data.lights.new("Sun D65", "SUN")
     sun.energy = 3.0
@@ -190,11 +194,12 @@ def reload_check(blend: Path, expected: dict, scratch: Path) -> dict:
 
 
 def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
-                 build_seconds: float, total_seconds: float, theta_cells: int,
+                 build_seconds: float, total_seconds: float, sizes: DemoSizes,
                  gpu_lines: list[str]) -> None:
     basis = analysis["basis"]
     lines = [
-        "# Spectral Materials demo report",
+        "# Spectral Materials demo report"
+        + (" (quick run: small sizes, not results)" if sizes.label == "quick" else ""),
         "",
         "Written by `scripts/demo` (every figure measured in that run). ΔE94 is measured as "
         "shared/PROTOCOL.md says: against the 5 nm evaluation of the analytic BRDF, D65, the "
@@ -223,7 +228,7 @@ def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
     for row in basis["per_size"]:
         lines.append(f"| {row['size']} | {row['max_de94']:.4f} | {row['mean_de94']:.4f} |")
     lines += ["", "## Error against time", "",
-              f"Grid: θ cells {theta_cells} (per 90°). Seconds are cumulative (tabulation + "
+              f"Grid: θ cells {sizes.theta_cells} (per 90°). Seconds are cumulative (tabulation + "
               "fit up to that pack count).", "",
               "| material | packs | ΔE94 mean | p95 | max | seconds |",
               "|---|---:|---:|---:|---:|---:|"]
@@ -256,15 +261,19 @@ def write_report(path: Path, analysis: dict, figures: dict, reload: dict,
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "out")
-    parser.add_argument("--theta-cells", type=int, default=64,
-                        help="θ cells per 90° for every material (default 64)")
+    parser.add_argument("--theta-cells", type=int, default=None,
+                        help="θ cells per 90° for every material (default 64, quick 12)")
+    parser.add_argument("--quick", action="store_true",
+                        help="every section at small sizes (a few minutes): proves the main "
+                        "job runs; its figures are not results")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args()
+    sizes = sizes_for(args.quick, args.theta_cells)
     start = time.perf_counter()
     out = args.out.resolve()
     (out / "images").mkdir(parents=True, exist_ok=True)
     addon.register()
-    build_scene(args.theta_cells)
+    build_scene(sizes)
     built = time.perf_counter() - start
     progress = None if args.quiet else TerminalProgress()
     try:
@@ -285,26 +294,29 @@ def main() -> int:
         plot_pixels = np.empty(width * height * 4, np.float32)
         material.spectral.result.plot.pixels.foreach_get(plot_pixels)
         _png(plot_pixels.reshape(height, width, 4), out / "images" / f"plot_{slug}.png")
-        stats = sphere_figure(name, material, out / "images" / f"spheres_{slug}.png")
+        stats = sphere_figure(name, material, out / "images" / f"spheres_{slug}.png",
+                              sizes.sphere_px)
         figures[name] = {"plot": f"images/plot_{slug}.png",
                          "spheres": f"images/spheres_{slug}.png", "stats": stats}
         expected[name] = storage.load_factored(material).evaluate(wi, wo)
     reload = reload_check(blend, expected, out)
     (out / "reload.npz").unlink(missing_ok=True)
     scene = bpy.context.scene
-    gpu_scene, comparison = demo_gpu.scene_figure(scene, out / "images" / "gpu_scene.png")
-    spheres = demo_gpu.sphere_table(list(analysis["factored"]))
-    frame = demo_gpu.frame_time(scene)
-    eevee_spheres = demo_eevee.sphere_table(list(analysis["factored"]))
+    gpu_scene, comparison = demo_gpu.scene_figure(scene, out / "images" / "gpu_scene.png",
+                                                  *sizes.scene_px)
+    spheres = demo_gpu.sphere_table(list(analysis["factored"]), sizes.sphere_px)
+    frame = demo_gpu.frame_time(scene, *sizes.frame_px, frames=sizes.frames,
+                                repeats=sizes.repeats)
+    eevee_spheres = demo_eevee.sphere_table(list(analysis["factored"]), sizes.sphere_px)
     eevee_section = demo_eevee.eevee_section(scene, comparison, out / "images")
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))        # with the EEVEE node groups
-    prt_section = demo_prt.prt_section(out / "images")      # its own scenes, saved apart
-    btf_section = demo_btf.btf_section(out / "images")      # its own scene too
+    prt_section = demo_prt.prt_section(out / "images", sizes)   # its own scenes, saved apart
+    btf_section = demo_btf.btf_section(out / "images", sizes)   # its own scene too
     total = time.perf_counter() - start
-    write_report(out / "report.md", analysis, figures, reload, built, total, args.theta_cells,
-                 demo_gpu.report_lines(gpu_scene, spheres, frame)
+    write_report(out / "report.md", analysis, figures, reload, built, total, sizes,
+                 demo_gpu.report_lines(gpu_scene, spheres, frame, sizes.sphere_px)
                  + demo_eevee.report_lines(eevee_section)
-                 + demo_eevee.sphere_lines(eevee_spheres)
+                 + demo_eevee.sphere_lines(eevee_spheres, sizes.sphere_px)
                  + demo_prt.report_lines(prt_section)
                  + demo_btf.report_lines(btf_section))
     (out / "report.json").write_text(json.dumps(
@@ -315,7 +327,7 @@ def main() -> int:
                            for k, v in eevee_spheres.items()],
          "gpu_spheres": [{"material": k[0], "illuminant": k[1], "incidence": k[2], **v}
                          for k, v in spheres.items()],
-         "seconds": total}, indent=2, default=str))
+         "sizes": sizes.__dict__, "seconds": total}, indent=2, default=str))
     print(f"wrote {blend}, {out / 'report.md'} in {total:.1f} s; reopened bit-identical: "
           f"{all(reload.values())}")
     return 0 if all(reload.values()) else 1

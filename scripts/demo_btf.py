@@ -18,17 +18,15 @@ import bpy
 import numpy as np
 from bench_btf import fit_all  # scripts/, beside this file
 from demo_prt import _png  # the demo's display PNG writer
+from demo_sizes import DemoSizes
 
 from spectral_materials.blender import btf as blender_btf
 from spectral_materials.blender import btf_storage, draw
 from spectral_materials.core import btf_fit, btf_generate, spectra
 from spectral_materials.core.shading import shading_frame, to_local
 
-SIZE = (240, 160)
-TEXELS = 16
 
-
-def build_scene():
+def build_scene(sizes: DemoSizes):
     bpy.ops.wm.read_homefile(use_factory_startup=True)
     for obj in list(bpy.data.objects):
         if obj.type != "CAMERA":
@@ -43,12 +41,12 @@ def build_scene():
     material = bpy.data.materials.new("Corduroy")
     cushion.data.materials.append(material)
     s = material.spectral_btf
-    s.source, s.texels, s.model, s.lobes = "CORDUROY", TEXELS, "RFNL", 2
+    s.source, s.texels, s.model, s.lobes = "CORDUROY", sizes.btf_texels, "RFNL", 2
     s.uv_scale = (12.0, 3.0)
     camera = scene.camera
     camera.location = (0.0, -4.8, 1.9)
     camera.rotation_euler = (np.radians(68.0), 0.0, 0.0)
-    scene.render.resolution_x, scene.render.resolution_y = SIZE
+    scene.render.resolution_x, scene.render.resolution_y = sizes.btf_px
     scene.render.resolution_percentage = 100
     spot_data = bpy.data.lights.new("Shop light", "SPOT")
     spot_data.energy = 400.0
@@ -69,10 +67,11 @@ def build_scene():
 
 def views_used(scene, material) -> dict:
     """Measured views that get weight at the cushion's visible pixels, and their bytes."""
-    gbuffer = {out: draw.render_camera(scene, width=SIZE[0], height=SIZE[1], output=out)[0]
+    width, height = scene.render.resolution_x, scene.render.resolution_y
+    gbuffer = {out: draw.render_camera(scene, width=width, height=height, output=out)[0]
                for out in ("POSITION", "NORMAL", "TANGENT")}
     covered = gbuffer["POSITION"][..., 3] > 0
-    _, view = draw.camera_view(scene.camera, SIZE[0], SIZE[1],
+    _, view = draw.camera_view(scene.camera, width, height,
                                bpy.context.evaluated_depsgraph_get())
     points = gbuffer["POSITION"][covered, :3].astype(np.float64)
     t, b, n = shading_frame(gbuffer["NORMAL"][covered, :3], gbuffer["TANGENT"][covered, :3])
@@ -99,9 +98,9 @@ def comparison_table(texels: int) -> list[dict]:
     return rows
 
 
-def btf_section(images: Path) -> dict:
+def btf_section(images: Path, sizes: DemoSizes) -> dict:
     start = time.perf_counter()
-    scene, cushion, material = build_scene()
+    scene, cushion, material = build_scene(sizes)
     result = blender_btf.fit_btf(material)
     fit_wall = time.perf_counter() - start
     display, stats = draw.render_camera(scene, output="DISPLAY")
@@ -111,7 +110,7 @@ def btf_section(images: Path) -> dict:
                "drawn": material.name in stats.materials,
                "finite": bool(np.isfinite(xyz).all()),
                "max_y": float(xyz[..., 1].max()), "memory": views_used(scene, material),
-               "table": comparison_table(TEXELS), "texels": TEXELS,
+               "table": comparison_table(sizes.btf_texels), "texels": sizes.btf_texels,
                "bands": len(btf_generate.DEFAULT_WAVELENGTHS),
                "illuminants": ["FL2 spot", "D65 sun"], "white": "D65",
                "wavelengths": [float(spectra.WAVELENGTHS_REFERENCE[0]),

@@ -179,9 +179,10 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
     return rows
 
 
-def sphere_lines(rows: dict) -> list[str]:
-    lines = ["Protocol sphere rendered by EEVEE (128 px, one sun, black world, working space "
-             "Linear Rec.2020 during the render; `render-sphere --engine eevee` does the same), "
+def sphere_lines(rows: dict, sphere_px: int = 128) -> list[str]:
+    lines = [f"Protocol sphere rendered by EEVEE ({sphere_px} px, one sun, black world, "
+             "working space Linear Rec.2020 during the render; `render-sphere --engine eevee` "
+             "does the same), "
              "against the 5 nm reference and against the draw handler on the same pixels:", "",
              "| material | illuminant | incidence | EEVEE vs 5 nm mean | p95 | max | EEVEE vs "
              "handler mean | p95 | render s |", "|---|---|---:|---:|---:|---:|---:|---:|---:|"]

@@ -87,7 +87,8 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
     return rows
 
 
-def report_lines(scene_stats: dict, spheres: dict, frame: dict | None) -> list[str]:
+def report_lines(scene_stats: dict, spheres: dict, frame: dict | None,
+                 sphere_px: int = 128) -> list[str]:
     lines = ["", "## Real-time spectral drawing (GPU path)", "",
              "The demo scene drawn offscreen by the project's GLSL shaders (RGBA32F, from the "
              "scene camera, "
@@ -101,8 +102,8 @@ def report_lines(scene_stats: dict, spheres: dict, frame: dict | None) -> list[s
     for name, row in scene_stats["materials"].items():
         lines.append(f"| {name} | {row['pixels']} | {row['mean']:.3f} | {row['p95']:.3f} | "
                      f"{row['max']:.3f} | {row['gpu_vs_mirror_max']:.5f} |")
-    lines += ["", "Protocol sphere through the GPU path (128 px; shared/PROTOCOL.md): ΔE94 "
-              "against the 5 nm reference, and the largest ΔE94 between the GPU image and the "
+    lines += ["", f"Protocol sphere through the GPU path ({sphere_px} px; shared/PROTOCOL.md): "
+              "ΔE94 against the 5 nm reference, and the largest ΔE94 between the GPU image and the "
               "float64 Python evaluation of the same factors (the issue's bound is 0.1).", "",
               "| material | illuminant | incidence | vs 5 nm mean | p95 | max | "
               "GPU vs mirror max |", "|---|---|---:|---:|---:|---:|---:|"]

@@ -19,13 +19,13 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+from demo_sizes import DemoSizes
 
 from spectral_materials.blender import draw, prt, prt_gpu, prt_images, scene_lights
 from spectral_materials.core import colour_pipeline, metamers, prt_reference, spectra
 from spectral_materials.core.formats.spectral_exr import write_spectral_exr
 
 WL = spectra.WAVELENGTHS_REFERENCE
-SIZE = 160
 
 
 def _png(display_bottom_up: np.ndarray, path: Path) -> None:
@@ -35,7 +35,7 @@ def _png(display_bottom_up: np.ndarray, path: Path) -> None:
     imageio.imwrite(path, (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8))
 
 
-def _fresh_scene(camera_location, camera_rotation):
+def _fresh_scene(camera_location, camera_rotation, size: int):
     bpy.ops.wm.read_homefile(use_factory_startup=True)
     for obj in list(bpy.data.objects):
         if obj.type != "CAMERA":
@@ -43,7 +43,7 @@ def _fresh_scene(camera_location, camera_rotation):
     scene = bpy.context.scene
     scene.camera.location = camera_location
     scene.camera.rotation_euler = camera_rotation
-    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_x = scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
     return scene
 
@@ -74,26 +74,27 @@ def _stats(de: np.ndarray) -> dict:
             "max": float(np.max(de))}
 
 
-def colorchecker_fl4(images: Path) -> dict:
+def colorchecker_fl4(images: Path, sizes: DemoSizes) -> dict:
     """Figure 2: spectral and RGB PRT against the 5 nm reference under FL4."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scene = _fresh_scene((0.0, -5.2, 1.9), (np.radians(75.0), 0.0, 0.0))
+    scene = _fresh_scene((0.0, -5.2, 1.9), (np.radians(75.0), 0.0, 0.0), sizes.prt_px)
     bpy.ops.mesh.primitive_monkey_add(size=2.0, location=(0.0, 0.0, 1.0))
     monkey = bpy.context.active_object
-    modifier = monkey.modifiers.new("subdivide", "SUBSURF")
-    modifier.levels = 2
-    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    if sizes.prt_subdivisions:
+        modifier = monkey.modifiers.new("subdivide", "SUBSURF")
+        modifier.levels = sizes.prt_subdivisions
+        bpy.ops.object.modifier_apply(modifier=modifier.name)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=16, y_subdivisions=16, size=6.0)
     obj = _join([monkey, bpy.context.active_object], "Suzanne")
     env = scene.spectral.environment
     env.source, env.illuminant, env.sky, env.bands, env.basis_size = \
         "SKY", "FL4", "OVERCAST", 5, 8
     obj.spectral_prt.albedo_kind = "CHART"
-    obj.spectral_prt.rays = 512
+    obj.spectral_prt.rays = sizes.prt_bake_rays
     baked = prt.bake_prt(obj, scene)
     start = time.perf_counter()
     spectral_xyz = draw.render_camera(scene, output="XYZ")[0]
@@ -104,7 +105,7 @@ def colorchecker_fl4(images: Path) -> dict:
     gpu_seconds = time.perf_counter() - start
     # The reference: 5 nm Monte Carlo irradiance at the vertices, interpolated.
     start = time.perf_counter()
-    irradiance = prt.vertex_reference_irradiance(obj, scene, rays=4096)
+    irradiance = prt.vertex_reference_irradiance(obj, scene, rays=sizes.prt_reference_rays)
     reference_seconds = time.perf_counter() - start
     pixel_e = prt_images.interpolate(geometry, irradiance)                     # (P, L)
     albedo = prt.vertex_albedo_spectra(obj, geometry.uv)                       # (P, L)
@@ -137,6 +138,7 @@ def colorchecker_fl4(images: Path) -> dict:
             "spectral": _stats(de_spectral), "rgb": _stats(de_rgb),
             "pixels": int(covered.sum()), "gpu_seconds": gpu_seconds,
             "reference_seconds": reference_seconds, "basis": int(env.basis_size),
+            "reference_rays": sizes.prt_reference_rays,
             "bands": int(env.bands)}
 
 
@@ -151,7 +153,7 @@ def _render_rgb(scene) -> np.ndarray:
         return target.read()
 
 
-def metacow(images: Path) -> dict:
+def metacow(images: Path, sizes: DemoSizes) -> dict:
     """Figure 1: the ColorChecker and its metamers under D65, A and FL2."""
     import matplotlib
 
@@ -167,8 +169,8 @@ def metacow(images: Path) -> dict:
     texture = np.repeat(np.repeat(chart, patch_pixels, 0), patch_pixels, 1)
     path = images / "metacow_albedo.exr"
     write_spectral_exr(path, WL, texture, kind="reflective")
-    scene = _fresh_scene((0.0, 0.0, 9.5), (0.0, 0.0, 0.0))
-    scene.render.resolution_x, scene.render.resolution_y = 2 * SIZE, SIZE
+    scene = _fresh_scene((0.0, 0.0, 9.5), (0.0, 0.0, 0.0), sizes.prt_px)
+    scene.render.resolution_x = 2 * sizes.prt_px
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     obj = bpy.context.active_object
     obj.scale = (3.0, 1.0, 1.0)
@@ -220,9 +222,10 @@ def _nearest(geometry, uv) -> tuple[int, int]:
     return int(rows[best]), int(cols[best])
 
 
-def prt_section(images: Path) -> dict:
+def prt_section(images: Path, sizes: DemoSizes) -> dict:
     start = time.perf_counter()
-    section = {"colorchecker_fl4": colorchecker_fl4(images), "metacow": metacow(images)}
+    section = {"colorchecker_fl4": colorchecker_fl4(images, sizes),
+               "metacow": metacow(images, sizes)}
     section["seconds"] = time.perf_counter() - start
     return section
 
@@ -236,7 +239,8 @@ def report_lines(section: dict) -> list[str]:
              f"{fl4['basis']}. Transfer baked with {fl4['rays']} rays per vertex "
              f"({fl4['backend']}, {fl4['bake_seconds']:.1f} s, "
              f"{fl4['rays_per_second'] / 1e6:.2f} M rays/s). Reference: 5 nm Monte Carlo "
-             "spectral irradiance at the vertices (4096 rays, same visibility), interpolated "
+             f"spectral irradiance at the vertices ({fl4['reference_rays']} rays, same "
+             "visibility), interpolated "
              "per pixel as the rasteriser does, times the patch spectra.", "",
              "![RGB PRT, reference, spectral PRT, ΔE94 maps](images/prt_colorchecker_fl4.png)",
              "", "| FL4, per pixel | ΔE94 mean | p95 | max |", "|---|---:|---:|---:|"]

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import draw, prt_gpu
+from . import draw, prt, prt_gpu
 
 
 @dataclass
@@ -40,6 +40,9 @@ def pixel_geometry(scene, obj, *, width: int | None = None,
     images = {out: draw.render_camera(scene, output=out, width=width, height=height)[0]
               for out in ("POSITION", "COORDINATES", "PRIMITIVE")}
     covered = images["POSITION"][..., 3] > 0.5
+    if not covered.any():
+        raise prt.PRTError(f"Object '{obj.name}' covers no pixel of the camera's "
+                           f"{covered.shape[1]}×{covered.shape[0]} view")
     arrays = prt_gpu._OBJECTS[obj.name]["arrays"]
     prim = images["PRIMITIVE"][..., 0][covered].round().astype(int)
     corners = arrays.triangles[prim]
