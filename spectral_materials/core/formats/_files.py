@@ -65,12 +65,16 @@ def read_errors(path: Path, invalid: type[Exception], what: str = "samples",
 #: ratio rule is for members big enough to matter, and small headers and tables of a few
 #: values legitimately compress far better than data.
 RATIO_FREE_BYTES = 1 << 20
-#: Bytes inflated per step of :class:`ZipMemberReader`: what one call can add to memory.
+#: Bytes asked of a member per read: what one call can add to memory.
 _STEP = 1 << 16
-_LOCAL_HEADER = struct.Struct("<IHHHHHIIIHH")
-_LOCAL_SIGNATURE = 0x04034B50
-_METHODS = {zipfile.ZIP_STORED: "stored", zipfile.ZIP_DEFLATED: "deflate",
-            zipfile.ZIP_BZIP2: "bzip2", zipfile.ZIP_LZMA: "LZMA"}
+#: A local file header's fixed part: signature, then the name's and extra field's lengths.
+_LOCAL_HEADER = struct.Struct("<4s22xHH")
+_LOCAL_SIGNATURE = b"PK\x03\x04"
+#: The methods read. ``zipfile`` inflates these in bounded steps but a bzip2 or LZMA
+#: member in one call as large as the member, so those are refused; NumPy's ``savez`` and
+#: ``savez_compressed`` write only stored and deflate members, and so do UBO2003 archives.
+_METHODS = {zipfile.ZIP_STORED: "stored", zipfile.ZIP_DEFLATED: "deflate"}
+_UNBOUNDED_METHODS = {zipfile.ZIP_BZIP2: "bzip2", zipfile.ZIP_LZMA: "LZMA"}
 
 
 def check_zip_member(path: Path, info: zipfile.ZipInfo, archive_size: int, *,
@@ -78,18 +82,22 @@ def check_zip_member(path: Path, info: zipfile.ZipInfo, archive_size: int, *,
                      error: type[ValueError] = InvalidBRDFData) -> None:
     """Refuse a member whose declared sizes the archive cannot back, before reading it.
 
-    A stored member must declare as many bytes uncompressed as compressed; the compressed
-    bytes must lie inside the archive (``archive_size`` bytes); a compressed member may not
-    declare more than ``max_ratio`` times its compressed size (unless it declares at most
+    Only stored and deflate members are read (bzip2 and LZMA are refused); a stored member
+    must declare as many bytes uncompressed as compressed; the compressed bytes must lie
+    inside the archive (``archive_size`` bytes); a compressed member may not declare more
+    than ``max_ratio`` times its compressed size (unless it declares at most
     :data:`RATIO_FREE_BYTES`), nor anyone more than ``max_bytes``.
     Raises ``error`` naming the file and the member.
     """
     where = f"{path}: member {info.filename!r}"
     if info.flag_bits & 0x1:
         raise error(f"{where} is encrypted")
+    if info.compress_type in _UNBOUNDED_METHODS:
+        raise error(f"{where} is compressed with {_UNBOUNDED_METHODS[info.compress_type]}; "
+                    f"only stored or deflate members are read")
     if info.compress_type not in _METHODS:
         raise error(f"{where} uses compression method {info.compress_type}; "
-                    f"{', '.join(_METHODS.values())} expected")
+                    f"{' or '.join(_METHODS.values())} expected")
     if info.compress_type == zipfile.ZIP_STORED and info.compress_size != info.file_size:
         raise error(f"{where} is stored but declares {info.file_size:,} bytes in "
                     f"{info.compress_size:,}")
@@ -109,110 +117,64 @@ def check_zip_member(path: Path, info: zipfile.ZipInfo, archive_size: int, *,
                     f"most {max_ratio:g}:1 is accepted)")
 
 
-def _lzma_decompressor(header: bytes):
-    """A raw LZMA1 decompressor from a zip LZMA member's 4-byte header and properties."""
-    import lzma
-
-    if len(header) < 9:
-        raise zipfile.BadZipFile("LZMA properties missing")
-    props = header[4:9]
-    pb, rest = divmod(props[0], 45)
-    lp, lc = divmod(rest, 9)
-    dict_size = struct.unpack("<I", props[1:5])[0]
-    return lzma.LZMADecompressor(lzma.FORMAT_RAW, filters=[{
-        "id": lzma.FILTER_LZMA1, "dict_size": dict_size, "lc": lc, "lp": lp, "pb": pb}])
+#: What ``zipfile`` raises for damaged member data (``EOFError``: the data end early).
+_DAMAGE = (zipfile.BadZipFile, zlib.error, EOFError, OSError)
 
 
-class ZipMemberReader(io.RawIOBase):
-    """The uncompressed bytes of one zip member, inflated step by step under a running cap.
+class _ZipMember(io.RawIOBase):
+    """A member's bytes through :class:`zipfile.ZipExtFile` (what :meth:`zipfile.ZipFile.open`
+    returns), :data:`_STEP` bytes a call, held to its declared size; damage is ``error``
+    naming the file and the member.
 
-    The sizes come from the central directory (check them first with
-    :func:`check_zip_member`); the member's data start after its local header. At most
-    :data:`_STEP` bytes are inflated per step whatever the method, so a member cannot
-    allocate more than it has produced; producing more than its declared size, ending
-    early or failing its CRC raises ``error`` naming the file and the member. Seeking
-    backwards starts the member again (as :class:`zipfile.ZipExtFile` does).
+    ``ZipExtFile`` inflates a stored or deflate member in steps of the size asked for,
+    stops at the declared size and checks the CRC there; asking for little at a time keeps
+    every call small (its own forward seeks read 16 MiB at once). The running count turns
+    a member that ends early, which ``ZipExtFile`` reports as a plain end of data, into an
+    error.
     """
 
-    def __init__(self, path: Path, info: zipfile.ZipInfo,
-                 error: type[ValueError] = InvalidBRDFData) -> None:
+    def __init__(self, path: Path, info: zipfile.ZipInfo, error: type[ValueError]) -> None:
         super().__init__()
         self._path, self._info, self._error = Path(path), info, error
-        self._file = open(path, "rb")
+        self._position = 0
+        file = open(path, "rb")  # a missing or locked file is the caller's error
         try:
-            self._start()
+            # ZipFile.open would re-read the whole central directory for every member
+            # (minutes for the 6561 members of a UBO2003 archive); only the local
+            # header's variable length is needed to find the member's data.
+            file.seek(info.header_offset)
+            fixed = file.read(_LOCAL_HEADER.size)
+            if len(fixed) != _LOCAL_HEADER.size or fixed[:4] != _LOCAL_SIGNATURE:
+                raise self._fail("has no local header where the central directory says")
+            name_length, extra_length = _LOCAL_HEADER.unpack(fixed)[-2:]
+            file.seek(name_length + extra_length, io.SEEK_CUR)
+            self._member = zipfile.ZipExtFile(file, "r", info, close_fileobj=True)
         except BaseException:
-            self._file.close()
+            file.close()
             raise
 
     def _fail(self, problem: str) -> ValueError:
         return self._error(f"{self._path}: member {self._info.filename!r} {problem}")
 
-    def _start(self) -> None:
-        info = self._info
-        self._file.seek(info.header_offset)
-        fixed = self._file.read(_LOCAL_HEADER.size)
-        if len(fixed) != _LOCAL_HEADER.size or _LOCAL_HEADER.unpack(fixed)[0] != _LOCAL_SIGNATURE:
-            raise self._fail("has no local header where the central directory says")
-        name_length, extra_length = _LOCAL_HEADER.unpack(fixed)[-2:]
-        self._file.seek(name_length + extra_length, io.SEEK_CUR)
-        self._compressed_left = info.compress_size
-        self._position = 0
-        self._crc = 0
-        self._inflate = None
-        if info.compress_type == zipfile.ZIP_DEFLATED:
-            self._inflate = zlib.decompressobj(-15)
-        elif info.compress_type == zipfile.ZIP_BZIP2:
-            import bz2
-
-            self._inflate = bz2.BZ2Decompressor()
-        elif info.compress_type == zipfile.ZIP_LZMA:
-            self._inflate = _lzma_decompressor(self._take(9))
-
-    def _take(self, n: int) -> bytes:
-        """Up to ``n`` more compressed bytes of the member."""
-        data = self._file.read(min(n, self._compressed_left))
-        self._compressed_left -= len(data)
-        if n and self._compressed_left and not data:
-            raise self._fail("is truncated")
-        return data
-
-    def _produce(self, limit: int) -> bytes:
-        """At most ``limit`` more uncompressed bytes (empty at the member's end)."""
-        if self._inflate is None:
-            return self._take(limit)
-        inflate = self._inflate
-        while not inflate.eof:
-            if hasattr(inflate, "unconsumed_tail"):  # zlib keeps what it did not use
-                data = inflate.decompress(inflate.unconsumed_tail or self._take(_STEP), limit)
-                ended = inflate.eof or (not self._compressed_left and not inflate.unconsumed_tail)
-            else:  # bz2/lzma buffer it themselves and say when they need more
-                more = self._take(_STEP) if inflate.needs_input else b""
-                data = inflate.decompress(more, limit)
-                ended = inflate.eof or (not self._compressed_left and inflate.needs_input)
-            if data or ended:
-                return data
-        return b""
+    def _damaged(self, exc: BaseException) -> ValueError:
+        return self._fail(f"is damaged ({type(exc).__name__}: {exc})")
 
     def readinto(self, buffer) -> int:
         view = memoryview(buffer).cast("B")
         want = min(len(view), _STEP)
         try:
-            data = self._produce(want) if want else b""
-        except self._error:
-            raise
-        except Exception as exc:  # zlib.error, OSError (bz2), LZMAError, EOFError...
-            raise self._fail(f"is damaged ({type(exc).__name__}: {exc})") from None
+            data = self._member.read(want) if want else b""
+        except _DAMAGE as exc:
+            raise self._damaged(exc) from None
         declared = self._info.file_size
+        # ZipExtFile cuts the data at the declared size itself; the bound should not rest
+        # on that alone.
         if self._position + len(data) > declared:
             raise self._fail(f"inflates past its declared {declared:,} bytes")
         if want and not data and self._position < declared:
             raise self._fail(f"ends after {self._position:,} of its declared {declared:,} bytes")
         view[: len(data)] = data
         self._position += len(data)
-        self._crc = zlib.crc32(data, self._crc)
-        if data and self._position == declared and self._crc != self._info.CRC:
-            raise self._fail("is damaged (CRC mismatch)")
         return len(data)
 
     def readable(self) -> bool:
@@ -230,23 +192,27 @@ class ZipMemberReader(io.RawIOBase):
         if target < 0:
             raise ValueError(f"negative seek position {target}")
         if target < self._position:
-            self._start()
+            try:  # ZipExtFile starts the member again: nothing is read yet
+                self._member.seek(0)
+            except _DAMAGE as exc:
+                raise self._damaged(exc) from None
+            self._position = 0
         while self._position < target:
             if not self.read(min(target - self._position, _STEP)):
                 break
         return self._position
 
     def close(self) -> None:
-        file = getattr(self, "_file", None)  # absent when opening the archive failed
-        if file is not None:
-            file.close()
+        member = getattr(self, "_member", None)  # absent when the constructor failed
+        if member is not None:
+            member.close()  # and the file with it (close_fileobj)
         super().close()
 
 
 def open_zip_member(path: Path, info: zipfile.ZipInfo, *, max_bytes: int, max_ratio: float,
                     error: type[ValueError] = InvalidBRDFData) -> io.BufferedReader:
-    """A buffered, seekable stream of a member's bytes after :func:`check_zip_member`;
-    decompression is streamed under a running cap (:class:`ZipMemberReader`)."""
+    """A buffered, seekable stream of a member's bytes after :func:`check_zip_member`,
+    inflated at most :data:`_STEP` bytes a call and held to its declared size."""
     check_zip_member(path, info, os.path.getsize(path), max_bytes=max_bytes,
                      max_ratio=max_ratio, error=error)
-    return io.BufferedReader(ZipMemberReader(path, info, error), buffer_size=_STEP)
+    return io.BufferedReader(_ZipMember(path, info, error), buffer_size=_STEP)
