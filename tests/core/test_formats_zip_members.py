@@ -40,9 +40,10 @@ def _archive(path, members: dict[str, bytes], method=zipfile.ZIP_DEFLATED):
 
 
 def _open(path, name, *, max_bytes=1 << 30, max_ratio=1e9, error=ZipError):
+    # Closing the archive with a member open leaves the file open until the member closes.
     with zipfile.ZipFile(path) as archive:
-        info = archive.getinfo(name)
-    return open_zip_member(path, info, max_bytes=max_bytes, max_ratio=max_ratio, error=error)
+        return open_zip_member(archive, archive.getinfo(name), path=path, max_bytes=max_bytes,
+                               max_ratio=max_ratio, error=error)
 
 
 def _patch_central(path, field: int, value: int, size: str = "<I") -> None:
@@ -109,8 +110,8 @@ def test_files_are_closed(tmp_path):
     with _open(path, "m") as stream:
         stream.read()
     _patch_central(path, 42, 1)  # the member's local header offset
-    with pytest.raises(ZipError, match=r"f.zip: member 'm' has no local header where the "
-                                       r"central directory says"):
+    with pytest.raises(ZipError, match=r"f.zip: member 'm' is damaged \(BadZipFile: Bad magic "
+                                       r"number for file header\)"):
         _open(path, "m")
     assert len(os.listdir("/proc/self/fd")) == before
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import struct
 import tempfile
 import zipfile
 import zlib
@@ -68,8 +67,8 @@ RATIO_FREE_BYTES = 1 << 20
 #: Bytes asked of a member per read: what one call can add to memory.
 _STEP = 1 << 16
 #: A local file header's fixed part: signature, then the name's and extra field's lengths.
-_LOCAL_HEADER = struct.Struct("<4s22xHH")
-_LOCAL_SIGNATURE = b"PK\x03\x04"
+#: Bytes of a local file header before the member's name and extra field.
+_LOCAL_HEADER_SIZE = 30
 #: The methods read. ``zipfile`` inflates these in bounded steps but a bzip2 or LZMA
 #: member in one call as large as the member, so those are refused; NumPy's ``savez`` and
 #: ``savez_compressed`` write only stored and deflate members, and so do UBO2003 archives.
@@ -103,7 +102,7 @@ def check_zip_member(path: Path, info: zipfile.ZipInfo, archive_size: int, *,
                     f"{info.compress_size:,}")
     # The name's bytes are left out: the central directory's encoding may differ from
     # the local header's, and this is a bound, not the exact offset.
-    end = info.header_offset + _LOCAL_HEADER.size + info.compress_size
+    end = info.header_offset + _LOCAL_HEADER_SIZE + info.compress_size
     if end > archive_size:
         raise error(f"{where} declares {info.compress_size:,} bytes of data from offset "
                     f"{info.header_offset:,}, past the end of the {archive_size:,}-byte archive")
@@ -133,25 +132,15 @@ class _ZipMember(io.RawIOBase):
     error.
     """
 
-    def __init__(self, path: Path, info: zipfile.ZipInfo, error: type[ValueError]) -> None:
+    def __init__(self, archive: zipfile.ZipFile, info: zipfile.ZipInfo, path: Path,
+                 error: type[ValueError]) -> None:
         super().__init__()
         self._path, self._info, self._error = Path(path), info, error
         self._position = 0
-        file = open(path, "rb")  # a missing or locked file is the caller's error
         try:
-            # ZipFile.open would re-read the whole central directory for every member
-            # (minutes for the 6561 members of a UBO2003 archive); only the local
-            # header's variable length is needed to find the member's data.
-            file.seek(info.header_offset)
-            fixed = file.read(_LOCAL_HEADER.size)
-            if len(fixed) != _LOCAL_HEADER.size or fixed[:4] != _LOCAL_SIGNATURE:
-                raise self._fail("has no local header where the central directory says")
-            name_length, extra_length = _LOCAL_HEADER.unpack(fixed)[-2:]
-            file.seek(name_length + extra_length, io.SEEK_CUR)
-            self._member = zipfile.ZipExtFile(file, "r", info, close_fileobj=True)
-        except BaseException:
-            file.close()
-            raise
+            self._member = archive.open(info)
+        except _DAMAGE as exc:  # a bad local header, say
+            raise self._damaged(exc) from None
 
     def _fail(self, problem: str) -> ValueError:
         return self._error(f"{self._path}: member {self._info.filename!r} {problem}")
@@ -205,14 +194,16 @@ class _ZipMember(io.RawIOBase):
     def close(self) -> None:
         member = getattr(self, "_member", None)  # absent when the constructor failed
         if member is not None:
-            member.close()  # and the file with it (close_fileobj)
+            member.close()
         super().close()
 
 
-def open_zip_member(path: Path, info: zipfile.ZipInfo, *, max_bytes: int, max_ratio: float,
+def open_zip_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, *, path: Path,
+                    max_bytes: int, max_ratio: float,
                     error: type[ValueError] = InvalidBRDFData) -> io.BufferedReader:
-    """A buffered, seekable stream of a member's bytes after :func:`check_zip_member`,
-    inflated at most :data:`_STEP` bytes a call and held to its declared size."""
+    """A buffered, seekable stream of a member of the open ``archive`` (read from ``path``)
+    after :func:`check_zip_member`, inflated at most :data:`_STEP` bytes a call and held to
+    its declared size."""
     check_zip_member(path, info, os.path.getsize(path), max_bytes=max_bytes,
                      max_ratio=max_ratio, error=error)
-    return io.BufferedReader(_ZipMember(path, info, error), buffer_size=_STEP)
+    return io.BufferedReader(_ZipMember(archive, info, path, error), buffer_size=_STEP)

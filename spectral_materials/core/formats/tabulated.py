@@ -360,9 +360,9 @@ class _Invalid(Exception):
     """Internal: a problem found while parsing, turned into InvalidBRDFData with the path."""
 
 
-def _open_member(path: Path, info: zipfile.ZipInfo):
+def _open_member(path: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo):
     """The member's bytes, its declared sizes checked against the archive first."""
-    return open_zip_member(path, info, max_bytes=_MAX_MEMBER_BYTES,
+    return open_zip_member(archive, info, path=path, max_bytes=_MAX_MEMBER_BYTES,
                            max_ratio=MAX_DEFLATE_RATIO)
 
 
@@ -375,7 +375,7 @@ def _member_header(path: Path, archive: zipfile.ZipFile, name: str
     except KeyError:
         raise _Invalid(f"no '{name}' entry (has: "
                        f"{', '.join(sorted(archive.namelist())) or 'nothing'})") from None
-    with _open_member(path, info) as stream:
+    with _open_member(path, archive, info) as stream:
         version = np.lib.format.read_magic(stream)
         if version == (1, 0):
             shape, _, dtype = np.lib.format.read_array_header_1_0(stream)
@@ -429,7 +429,7 @@ def _parse_meta(raw: np.ndarray) -> dict:
 def _read_member(path: Path, archive: zipfile.ZipFile, name: str) -> np.ndarray:
     """The array of ``name.npy``, inflated under a running cap (after :func:`_member_header`
     checked its declared size: no more is allocated than the member really holds)."""
-    with _open_member(path, archive.getinfo(f"{name}.npy")) as stream:
+    with _open_member(path, archive, archive.getinfo(f"{name}.npy")) as stream:
         return np.lib.format.read_array(stream, allow_pickle=False)
 
 

@@ -254,10 +254,11 @@ def _jpeg(source, member: str):
     return image
 
 
-def _member(path: Path, info: zipfile.ZipInfo, max_member_bytes: int):
+def _member(archive: zipfile.ZipFile, path: Path, info: zipfile.ZipInfo,
+            max_member_bytes: int):
     """The member's bytes as a stream, inflated under a running cap (sizes checked first)."""
-    return open_zip_member(path, info, max_bytes=max_member_bytes, max_ratio=MAX_MEMBER_RATIO,
-                           error=InvalidBTFData)
+    return open_zip_member(archive, info, path=path, max_bytes=max_member_bytes,
+                           max_ratio=MAX_MEMBER_RATIO, error=InvalidBTFData)
 
 
 def _check_image(info: zipfile.ZipInfo, image, shape: tuple[int, int] | None,
@@ -281,12 +282,13 @@ def _check_image(info: zipfile.ZipInfo, image, shape: tuple[int, int] | None,
     return height, width
 
 
-def _image_shape(path: Path, entries: dict, max_member_bytes: int) -> tuple[int, int]:
+def _image_shape(archive: zipfile.ZipFile, path: Path, entries: dict,
+                 max_member_bytes: int) -> tuple[int, int]:
     """(H, W) shared by every member, from their JPEG headers alone (no pixel decoded)."""
     shape = None
     for key in sorted(entries):
         info = entries[key]
-        with _member(path, info, max_member_bytes) as stream:
+        with _member(archive, path, info, max_member_bytes) as stream:
             shape = _check_image(info, _jpeg(stream, info.filename), shape, max_member_bytes)
     return shape
 
@@ -320,10 +322,11 @@ def _entropy_bytes(data: bytes) -> int:
     return total
 
 
-def _decode_member(path: Path, info: zipfile.ZipInfo, shape: tuple[int, int],
-                   lut: np.ndarray, max_member_bytes: int) -> np.ndarray:
+def _decode_member(archive: zipfile.ZipFile, path: Path, info: zipfile.ZipInfo,
+                   shape: tuple[int, int], lut: np.ndarray, max_member_bytes: int
+                   ) -> np.ndarray:
     """The (H, W, 3) float32 image of one member, checked against ``shape`` (H, W)."""
-    with _member(path, info, max_member_bytes) as stream:
+    with _member(archive, path, info, max_member_bytes) as stream:
         data = stream.read()  # the whole member, so that its CRC is checked
     image = _jpeg(io.BytesIO(data), info.filename)
     height, width = _check_image(info, image, shape, max_member_bytes)
@@ -436,7 +439,7 @@ class UBOBTF(_Directions):
         lut = self._lut()
         with zipfile.ZipFile(self.path) as archive:
             for (v, l), name in self._members.items():
-                images[v, l] = _decode_member(self.path, archive.getinfo(name),
+                images[v, l] = _decode_member(archive, self.path, archive.getinfo(name),
                                               self.image_shape[:2], lut,
                                               self._max_member_bytes)
         images[~self.present] = np.nan
@@ -471,8 +474,8 @@ class UBOBTF(_Directions):
         def decode() -> np.ndarray:
             with zipfile.ZipFile(self.path) as archive:
                 info = archive.getinfo(self._members[(v, l)])
-            return _decode_member(self.path, info, self.image_shape[:2], self._lut(),
-                                  self._max_member_bytes)
+                return _decode_member(archive, self.path, info, self.image_shape[:2],
+                                      self._lut(), self._max_member_bytes)
 
         return _wrap(self.path, decode)
 
@@ -574,13 +577,13 @@ def _read_ubo2003(path: Path, *, linear: bool, lazy: bool, strict: bool, max_byt
                   max_member_bytes: int) -> UBOBTF:
     with zipfile.ZipFile(path) as archive:
         entries, skipped = _scan_members(path, archive, strict, max_bytes, max_member_bytes)
-    views = sorted({(tv, pv) for (_, _, tv, pv) in entries})
-    lights = sorted({(tl, pl) for (tl, pl, _, _) in entries})
-    if len(views) * len(lights) > MAX_PAIRS:
-        raise _Invalid(f"{len(views):,} views × {len(lights):,} lights from {len(entries):,} "
-                       f"images: over the {MAX_PAIRS:,}-pair limit")
-    # Every member's header, then the whole array, before decoding any pixel.
-    height, width = _image_shape(path, entries, max_member_bytes)
+        views = sorted({(tv, pv) for (_, _, tv, pv) in entries})
+        lights = sorted({(tl, pl) for (tl, pl, _, _) in entries})
+        if len(views) * len(lights) > MAX_PAIRS:
+            raise _Invalid(f"{len(views):,} views × {len(lights):,} lights from "
+                           f"{len(entries):,} images: over the {MAX_PAIRS:,}-pair limit")
+        # Every member's header, then the whole array, before decoding any pixel.
+        height, width = _image_shape(archive, path, entries, max_member_bytes)
     if not lazy:
         _check_dense((len(views), len(lights), height, width, 3), len(entries), max_bytes)
     view_index = {a: i for i, a in enumerate(views)}
