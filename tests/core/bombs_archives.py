@@ -21,25 +21,12 @@ import io
 import json
 import struct
 import zlib
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from peak_memory import MB, Bomb
 
 KB = 1 << 10
-MB = 1 << 20
-
-
-@dataclass(frozen=True)
-class Bomb:
-    """One hostile file and the reader call it is aimed at."""
-
-    make: Callable[[Path], Path]
-    setup: str
-    call: str
-    decoded_bytes: int
-    note: str = ""
 
 
 # --------------------------------------------------------------------------- zip

@@ -21,23 +21,12 @@ import math
 import os
 import struct
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from peak_memory import MB, Bomb
 
 KB = 1 << 10
-MB = 1 << 20
-
-
-@dataclass(frozen=True)
-class Bomb:
-    """A crafted file (``make(directory) -> path``) and the reader call run on it."""
-
-    make: Callable[[Path], Path]
-    setup: str
-    call: str
-    decoded_bytes: int
 
 
 # --------------------------------------------------------------------------- RGL .bsdf

@@ -1,55 +1,35 @@
-"""Peak memory of the EXR, spectral EXR, tabulated .npz and UBO BTF readers on hostile
-files (bombs_archives), and on valid files of each kind for comparison.
+"""Peak memory of every file reader on hostile files, and on valid files of each kind.
 
-Each file is read in a fresh interpreter (peak_memory.peak_run); the peak resident memory
-the read added must stay within ``2 × decoded_bytes + 100 MB``, where ``decoded_bytes`` is
-what the file can really hold, and the read must either succeed or raise a project error
-(a ValueError subclass defined in spectral_materials) whose message names the file.
+The bombs of ``bombs_archives`` (EXR, spectral EXR, ``.npz``, UBO BTFs) and
+``bombs_binary`` (RGL ``.bsdf``, MERL, spectrum CSV) are each read in a fresh interpreter
+(``peak_memory.check_read``): the peak resident memory the read added must stay within
+``2 × decoded_bytes + 100 MB``, where ``decoded_bytes`` is what the file can really hold,
+and the read must either succeed or raise a project error (a ValueError subclass defined
+in spectral_materials) whose message names the file. ``scripts/bench_reader_memory.py``
+prints the same figures as a table.
 """
 
 from __future__ import annotations
 
-import importlib
-import time
 from pathlib import Path
 
+import bombs_archives
+import bombs_binary
 import numpy as np
 import pytest
-from bombs_archives import BOMBS
-from peak_memory import MB, peak_run
+from peak_memory import check_read
+
+BOMBS = {**bombs_archives.BOMBS, **bombs_binary.BOMBS}
 
 
-def _project_error(outcome: str) -> type | None:
-    """The exception class of a ``"module.Class: message"`` outcome if it is a
-    spectral_materials ValueError subclass, else None."""
-    qualified = outcome.split(":", 1)[0]
-    module, _, name = qualified.rpartition(".")
-    if not module.startswith("spectral_materials"):
-        return None
-    cls = getattr(importlib.import_module(module), name, None)
-    return cls if isinstance(cls, type) and issubclass(cls, ValueError) else None
-
-
-def _check(name: str, path: Path, setup: str, call: str, decoded_bytes: int) -> str:
-    start = time.perf_counter()
-    result = peak_run(setup, call, path)
-    seconds = time.perf_counter() - start
-    bound = 2 * decoded_bytes + 100 * MB
-    outcome = result["outcome"]
-    assert result["extra"] <= bound, (
-        f"{name}: +{result['extra'] / MB:.1f} MB, bound {bound / MB:.1f} MB ({outcome[:200]})")
-    if outcome != "ok":
-        assert _project_error(outcome) is not None, outcome
-        assert str(path) in outcome, outcome
-    assert seconds < 30, f"{name}: {seconds:.1f} s"
-    return outcome
+def test_registries_do_not_shadow_each_other():
+    assert not set(bombs_archives.BOMBS) & set(bombs_binary.BOMBS)
 
 
 @pytest.mark.parametrize("name", sorted(BOMBS))
 def test_reader_memory_stays_in_proportion(tmp_path, name):
     bomb = BOMBS[name]
-    path = bomb.make(tmp_path)
-    _check(name, path, bomb.setup, bomb.call, bomb.decoded_bytes)
+    check_read(name, bomb.make(tmp_path), bomb.setup, bomb.call, bomb.decoded_bytes)
 
 
 # --------------------------------------------------------------------------- valid files
@@ -121,4 +101,4 @@ VALID = {
 def test_valid_files_are_read_in_proportion(tmp_path, name):
     make, setup, call = VALID[name]
     path, decoded_bytes = make(tmp_path)
-    assert _check(name, path, setup, call, decoded_bytes) == "ok"
+    assert check_read(name, path, setup, call, decoded_bytes) == "ok"
