@@ -557,14 +557,13 @@ def vertex_xyz(obj, scene=None, depsgraph=None) -> np.ndarray:
     if obj is None or obj.type != "MESH":
         raise PRTError(f"'{getattr(obj, 'name', obj)}' is not a mesh")
     transfer, uv = _evaluated_arrays(obj, depsgraph)
-    state = scene_environment(scene)
     environment = object_environment(obj, scene)
     if transfer.shape[1] != environment.coefficients.shape[0]:
         raise PRTError(f"Object '{obj.name}' was baked with {transfer.shape[1]} SH "
                        f"coefficients, the environment has {environment.coefficients.shape[0]}"
                        " (SH bands changed): bake it again")
     weights = core_albedo.sample_layers(albedo_layers(obj, scene).layers, uv)
-    return core_prt.vertex_xyz(transfer, environment, weights, white_y=state.white_y)
+    return core_prt.vertex_xyz(transfer, environment, weights)
 
 
 def environment_white_xyz(scene) -> np.ndarray:

@@ -91,16 +91,6 @@ def white_y(environment) -> float:
     return value
 
 
-def _white(environment, given: float | None) -> float:
-    """The Y to divide by: ``given`` (checked) or the environment's own white."""
-    if given is None:
-        return white_y(environment)
-    value = float(given)
-    if not (np.isfinite(value) and value > 0):
-        raise ValueError(f"white_y must be finite and > 0, got {given!r}")
-    return value
-
-
 def _check_transfer(transfer: np.ndarray, environment) -> np.ndarray:
     transfer = np.asarray(transfer, dtype=np.float64)
     if transfer.ndim != 2 or transfer.shape[1] != environment.coefficients.shape[0]:
@@ -112,26 +102,20 @@ def _check_transfer(transfer: np.ndarray, environment) -> np.ndarray:
     return transfer
 
 
-def irradiance(transfer: np.ndarray, environment, *, white_y: float | None = None
-               ) -> np.ndarray:
+def irradiance(transfer: np.ndarray, environment) -> np.ndarray:
     """Ê (V, m) = T̃ · L̃ / white Y: the spectral irradiance coefficients the vertex shader
-    computes, in the environment's spectral basis (``transfer`` in its frame).
-
-    ``white_y``: the Y to divide by, the white of the world-frame environment (the scene's:
-    ``SceneEnvironment.white_y``); None takes :func:`white_y` of ``environment``, the same
-    number whatever frame it was turned into.
-    """
+    computes, in the environment's spectral basis (``transfer`` in its frame). The white
+    is :func:`white_y`, the same number whatever frame the environment was turned into."""
     transfer = _check_transfer(transfer, environment)
-    return transfer @ environment.coefficients / _white(environment, white_y)
+    return transfer @ environment.coefficients / white_y(environment)
 
 
-def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray, *,
-               white_y: float | None = None) -> np.ndarray:
+def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray) -> np.ndarray:
     """Linear XYZ (V, 3) leaving diffuse vertices: ``(T̃ · L̃) · R̃``, normalised so that a
     white, unoccluded Lambertian facing the world's up under the same environment has
     Y = 1 (the environment's white is the reference, as the measurement protocol's light
     is). The white belongs to the world frame: turning ``environment`` into an object's
-    frame does not change it (see :func:`irradiance` for ``white_y``).
+    frame does not change it.
 
     ``transfer`` (V, K) from :func:`transfer_from_visibility` in the environment's frame,
     ``environment`` a ``core.environment.SpectralEnvironment``, ``albedo`` (L,) on its
@@ -139,7 +123,7 @@ def vertex_xyz(transfer: np.ndarray, environment, albedo: np.ndarray, *,
     Negative components, left by the ringing of a band-limited sharp light, are clipped to
     0 (as the shader does): no physical spectrum has a negative XYZ.
     """
-    e = irradiance(transfer, environment, white_y=white_y)
+    e = irradiance(transfer, environment)
     albedo = np.asarray(albedo, dtype=np.float64)
     if albedo.ndim == 3:
         if albedo.shape != (len(e), e.shape[1], 3):
@@ -182,15 +166,14 @@ def rgb_albedo(albedo: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
     return (np.asarray(albedo, dtype=np.float64) @ weights) @ to_rgb.T / white
 
 
-def rgb_vertex_xyz(transfer: np.ndarray, environment, albedo_rgb: np.ndarray, *,
-                   white_y: float | None = None) -> np.ndarray:
+def rgb_vertex_xyz(transfer: np.ndarray, environment, albedo_rgb: np.ndarray) -> np.ndarray:
     """XYZ (V, 3) of RGB PRT: ``((T̃ · L̃_rgb) ⊙ albedo_rgb)`` back to XYZ, normalised by
     the same world-frame white as :func:`vertex_xyz` (a white albedo gives identical
     results)."""
     from . import colour_pipeline
 
     transfer = _check_transfer(transfer, environment)
-    rgb_e = transfer @ rgb_environment(environment) / _white(environment, white_y)
+    rgb_e = transfer @ rgb_environment(environment) / white_y(environment)
     rgb = rgb_e * np.asarray(albedo_rgb, dtype=np.float64)
     return np.clip(rgb @ np.linalg.inv(colour_pipeline.xyz_to_linear_srgb_matrix()).T, 0.0,
                    None)

@@ -132,19 +132,3 @@ def test_turning_the_environment_into_an_object_frame_keeps_the_world_white(fram
     rgb = prt.rgb_albedo(albedo, WL)
     np.testing.assert_allclose(prt.rgb_vertex_xyz(in_object, turned, rgb),
                                prt.rgb_vertex_xyz(in_world, env, rgb), rtol=1e-10, atol=1e-12)
-
-
-def test_an_explicit_white_is_what_colours_are_divided_by():
-    env = environment.sky_environment("D65", WL, sky="overcast", bands=3, window="none")
-    transfer = sh.zonal_to_sh(sh.clamped_cosine_zonal(3), np.array([[0.0, 0.6, 0.8]]))
-    own = prt.irradiance(transfer, env)
-    np.testing.assert_allclose(prt.irradiance(transfer, env, white_y=2 * prt.white_y(env)),
-                               own / 2, rtol=1e-12)
-    np.testing.assert_allclose(prt.vertex_xyz(transfer, env, np.ones(WL.size),
-                                              white_y=prt.white_y(env)),
-                               prt.vertex_xyz(transfer, env, np.ones(WL.size)), rtol=1e-12)
-    for bad in (0.0, -1.0, np.nan, np.inf):
-        with pytest.raises(ValueError, match="white_y must be"):
-            prt.irradiance(transfer, env, white_y=bad)
-        with pytest.raises(ValueError, match="white_y must be"):
-            prt.rgb_vertex_xyz(transfer, env, np.ones(3), white_y=bad)
