@@ -1,16 +1,24 @@
 """Build the Spectral Materials Blender extension: stage, bundle wheels, build, validate.
 
-Run it through the wrapper, ``scripts/build_extension [--out DIR] [--platform P ...]``:
+Run it through the wrapper,
+``scripts/build_extension [--out DIR] [--platform P ...] [--blender-ext PATH]``:
 
 1. stages a clean copy in ``build/extension/``: the ``spectral_materials/`` package and
    ``glsl/`` (no ``__pycache__``), ``blender_manifest.toml`` and a thin root
    ``__init__.py`` (a copy of ``scripts/extension_init.py``);
 2. puts the wheels the manifest lists under ``build/extension/wheels/``, downloading them
-   first (``pip download --no-deps --only-binary=:all:`` per platform, versions from
-   ``requirements/extension_wheels.txt``) into the cache ``build/wheels/`` unless there;
-3. runs Blender's ``blender_ext.py build --split-platforms`` (one zip per platform) with
-   Blender's own tag list, then ``blender_ext.py validate`` on each zip, printing both;
-4. prints, and writes to ``DIR/build_summary.txt``, one summary line: zips and sizes.
+   first (``pip download --no-deps --only-binary=:all:`` per platform and per Python of
+   ``PYTHONS``, versions from ``requirements/extension_wheels.txt``) into the cache
+   ``build/wheels/`` unless there;
+3. runs the newest Blender's ``blender_ext.py build --split-platforms`` (one zip per
+   platform) with that Blender's tag list, then ``blender_ext.py validate`` on each zip
+   with the newest Blender's tool and, when it differs, this interpreter's, printing all;
+4. prints, and writes to ``DIR/build_summary.txt``, the zips, their sizes and wheels.
+
+Which ``blender_ext.py``: ``--blender-ext PATH`` or ``$SPECTRAL_BLENDER_EXT``, where PATH
+is a ``blender_ext.py``, a Python interpreter with bpy, or a venv holding one; otherwise
+the newest bpy among this interpreter and the per-leg venvs ``.venvs/*/`` (newest by
+Blender version). The tool runs under the interpreter it came with.
 
 ``--platform`` (repeatable) builds a subset of the manifest's platforms; the staged
 manifest then declares only those and lists only their wheels. Exit status 0 on success,
@@ -21,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import os
 import re
 import shutil
 import subprocess
@@ -29,6 +38,7 @@ import tomllib
 import zipfile
 from pathlib import Path
 from types import ModuleType
+from typing import NamedTuple
 
 ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
@@ -50,17 +60,29 @@ REQUIRED_IN_ZIP = (
 )
 # Blender ships numpy; a bundled copy would shadow it for every add-on.
 NEVER_BUNDLE = ("numpy",)
-PYTHON_VERSION = "3.11"
+# Python versions per Blender platform: Blender 4.5 LTS and 5.0 run 3.11, 5.1 to 5.3 run
+# 3.13. Windows on Arm builds start at 5.1 (3.13 only); Intel macOS builds end with 4.5
+# (3.11 only). Each (platform, Python) needs exactly one wheel of every pin.
+PYTHONS = {
+    "linux-x64": ("3.11", "3.13"),
+    "windows-x64": ("3.11", "3.13"),
+    "windows-arm64": ("3.13",),
+    "macos-arm64": ("3.11", "3.13"),
+    "macos-x64": ("3.11",),
+}
 # pip --platform tags per Blender platform. pip does not widen a manylinux_2_x tag to older
-# glibc versions, so list them all up to 2.28 (Blender 5.0's Linux baseline). scipy 1.13.1
-# has arm64 macOS wheels only for macOS 12+; pip widens macOS tags downwards by itself.
+# glibc versions, so list them all up to 2.28 (Blender's Linux baseline). scipy 1.17.1's
+# arm64 macOS wheels are for macOS 12+ (OpenBLAS) and 14+ (Accelerate): asking for 12_0
+# picks the former; pip widens macOS tags downwards by itself.
 PIP_PLATFORMS = {
     "linux-x64": [f"manylinux_2_{minor}_x86_64" for minor in range(28, 16, -1)]
     + ["manylinux2014_x86_64"],
     "windows-x64": ["win_amd64"],
+    "windows-arm64": ["win_arm64"],
     "macos-arm64": ["macosx_12_0_arm64"],
     "macos-x64": ["macosx_11_0_x86_64"],
 }
+BLENDER_EXT_GLOB = "*/scripts/addons_core/bl_pkg/cli/blender_ext.py"
 
 
 class BuildError(Exception):
@@ -81,17 +103,82 @@ def normalize(name: str) -> str:
     return re.sub(r"[-_.]+", "_", name).lower()
 
 
-def find_blender_ext() -> Path:
-    """Blender's extension tool, from the bpy module in this Python (never imports bpy)."""
-    spec = importlib.util.find_spec("bpy")
-    if spec is None or spec.origin is None:
-        raise BuildError(f"bpy is not installed in {sys.executable}; run scripts/setup_env.sh")
+class BlenderExt(NamedTuple):
+    """One Blender's extension tool and the Python it runs under."""
+
+    path: Path
+    python: Path
+
+    @property
+    def version(self) -> tuple[int, ...]:
+        """The Blender version of the bpy it belongs to (the ``bpy/<X.Y>/`` folder)."""
+        return tuple(int(x) for x in self.path.parents[4].name.split("."))
+
+    def label(self) -> str:
+        return "Blender " + ".".join(map(str, self.version))
+
+
+def _version_key(path: Path) -> tuple[int, ...]:
+    try:
+        return tuple(int(x) for x in path.parents[4].name.split("."))
+    except ValueError:
+        return (0,)
+
+
+def _ext_in_site(python: Path) -> BlenderExt | None:
+    """The blender_ext.py of the bpy installed for ``python`` (a venv's bin/python)."""
+    venv = python.parent.parent
     found = sorted(
-        Path(spec.origin).parent.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py")
+        (p for p in venv.glob(f"lib/python3*/site-packages/bpy/{BLENDER_EXT_GLOB}")),
+        key=_version_key,
     )
-    if not found:
-        raise BuildError(f"blender_ext.py not found under {Path(spec.origin).parent}")
-    return found[-1]
+    return BlenderExt(found[-1], python) if found else None
+
+
+def _ext_from(value: str) -> BlenderExt:
+    """``--blender-ext``: a blender_ext.py, a Python interpreter with bpy, or a venv."""
+    path = Path(value).expanduser()
+    if path.is_file() and path.name == "blender_ext.py":
+        return BlenderExt(path.resolve(), Path(sys.executable))
+    python = path / "bin" / "python" if path.is_dir() else path
+    if python.is_file() and (found := _ext_in_site(python)) is not None:
+        return found
+    raise BuildError(
+        f"--blender-ext {value}: neither a blender_ext.py nor a Python/venv with bpy installed"
+    )
+
+
+def find_blender_exts(choice: str | None = None) -> list[BlenderExt]:
+    """Blender extension tools, newest first (never imports bpy).
+
+    ``choice`` (``--blender-ext``, else ``$SPECTRAL_BLENDER_EXT``) names the newest one;
+    otherwise it is the newest of this interpreter's bpy and those of ``.venvs/*/``. This
+    interpreter's comes second when it is another Blender version.
+    """
+    choice = choice or os.environ.get("SPECTRAL_BLENDER_EXT") or None
+    own = None
+    spec = importlib.util.find_spec("bpy")
+    if spec is not None and spec.origin is not None:
+        found = sorted(Path(spec.origin).parent.glob(BLENDER_EXT_GLOB), key=_version_key)
+        if found:
+            own = BlenderExt(found[-1], Path(sys.executable))
+    if choice:
+        newest = _ext_from(choice)
+    else:
+        candidates = [own] if own else []
+        for python in sorted(ROOT.glob(".venvs/*/bin/python")):
+            if (found := _ext_in_site(python)) is not None:
+                candidates.append(found)
+        if not candidates:
+            raise BuildError(
+                f"bpy is not installed in {sys.executable} nor in .venvs/*/; run "
+                "scripts/setup_env.sh or pass --blender-ext PATH"
+            )
+        newest = max(candidates, key=lambda e: e.version)
+    tools = [newest]
+    if own is not None and own.version != newest.version:
+        tools.append(own)
+    return tools
 
 
 def load_blender_ext(path: Path) -> ModuleType:
@@ -145,19 +232,44 @@ def plan_wheels(
             raise BuildError(f"{rel(REQUIREMENTS)} pins {name}: Blender ships it, never bundle it")
     plan: dict[str, list[str]] = {}
     for platform in platforms:
+        if platform not in PYTHONS:
+            raise BuildError(f"no Python versions known for {platform}; add it to PYTHONS")
         chosen = [
             w for w in wheels
             if ext.blender_platform_compatible_with_wheel_platform_from_filepath(platform, w)
         ]
-        for name, version in pins.items():
-            matching = [w for w in chosen if normalize(Path(w).name.split("-")[0]) == name]
-            if len(matching) != 1:
-                raise BuildError(
-                    f"manifest lists {len(matching)} wheels of {name}=={version} for {platform} "
-                    f"(want exactly 1): {matching or 'none'}"
-                )
+        for python in PYTHONS[platform]:
+            for name, version in pins.items():
+                matching = [
+                    w for w in chosen
+                    if normalize(Path(w).name.split("-")[0]) == name
+                    and python_matches(ext, Path(w).name, python)
+                ]
+                if len(matching) != 1:
+                    raise BuildError(
+                        f"manifest lists {len(matching)} wheels of {name}=={version} for "
+                        f"{platform} with Python {python} (want exactly 1): {matching or 'none'}"
+                    )
+        unused = [
+            w for w in chosen
+            if not any(python_matches(ext, Path(w).name, p) for p in PYTHONS[platform])
+        ]
+        if unused:
+            raise BuildError(
+                f"manifest lists wheels for {platform} that no Blender on it can load "
+                f"(Pythons {', '.join(PYTHONS[platform])}): {unused}"
+            )
         plan[platform] = chosen
     return plan
+
+
+def python_matches(ext: ModuleType, wheel: str, python: str) -> bool:
+    """Whether a wheel loads in Python ``python`` ("3.11"), by Blender's own tag reading."""
+    versions = ext.python_versions_from_wheel(wheel)
+    if isinstance(versions, str):
+        raise BuildError(f"{wheel}: {versions}")
+    major, minor = (int(x) for x in python.split("."))
+    return not versions or (major,) in versions or (major, minor) in versions
 
 
 def wheel_ok(path: Path) -> bool:
@@ -181,25 +293,31 @@ def ensure_wheels(plan: dict[str, list[str]], cache: Path) -> None:
             raise BuildError(f"no pip platform tags known for {platform}; add it to PIP_PLATFORMS")
         for name in missing:
             (cache / Path(name).name).unlink(missing_ok=True)
-        print(f"wheels for {platform}: downloading {len(missing)} into {rel(cache)}/")
-        command = [
-            sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary=:all:",
-            "--disable-pip-version-check", "--python-version", PYTHON_VERSION,
-            "--implementation", "cp", "--dest", str(cache), "--requirement", str(REQUIREMENTS),
-        ]
-        for tag in PIP_PLATFORMS[platform]:
-            command += ["--platform", tag]
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            sys.stderr.write(done.stdout + done.stderr)
-            raise BuildError(f"pip download for {platform} failed (exit {done.returncode})")
+        saved: list[str] = []
+        for python in PYTHONS[platform]:
+            print(f"wheels for {platform}, Python {python}: downloading into {rel(cache)}/")
+            command = [
+                sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary=:all:",
+                "--disable-pip-version-check", "--python-version", python,
+                "--implementation", "cp", "--dest", str(cache),
+                "--requirement", str(REQUIREMENTS),
+            ]
+            for tag in PIP_PLATFORMS[platform]:
+                command += ["--platform", tag]
+            done = subprocess.run(command, capture_output=True, text=True)
+            if done.returncode != 0:
+                sys.stderr.write(done.stdout + done.stderr)
+                raise BuildError(
+                    f"pip download for {platform}, Python {python} failed "
+                    f"(exit {done.returncode})"
+                )
+            saved += re.findall(r"(?:Saved|File was already downloaded) (\S+)", done.stdout)
         still = [w for w in missing if not wheel_ok(cache / Path(w).name)]
         if still:
-            saved = re.findall(r"(?:Saved|File was already downloaded) (\S+)", done.stdout)
             raise BuildError(
                 f"pip chose other files for {platform} than blender_manifest.toml lists; "
                 f"missing {[Path(w).name for w in still]}; pip has "
-                f"{sorted(Path(s).name for s in saved)}: update the manifest's wheels list"
+                f"{sorted({Path(s).name for s in saved})}: update the manifest's wheels list"
             )
 
 
@@ -266,11 +384,21 @@ def check_zip(path: Path, wheels: list[str]) -> None:
         raise BuildError(f"{path.name} holds files it should not: {stray[:5]}")
 
 
-def build(out: Path, platforms: list[str] | None) -> str:
-    """Everything: returns the summary line."""
-    blender_ext_path = find_blender_ext()
-    ext = load_blender_ext(blender_ext_path)
-    valid_tags = blender_ext_path.parents[3] / "modules/_bpy_internal/extensions/tags.py"
+def tool_command(tool: BlenderExt, *args: str) -> list[str]:
+    """``python blender_ext.py ARGS [--valid-tags TAGS]`` with that Blender's own tag list."""
+    command = [str(tool.python), str(tool.path), *args]
+    valid_tags = tool.path.parents[3] / "modules/_bpy_internal/extensions/tags.py"
+    if valid_tags.is_file():
+        command += ["--valid-tags", str(valid_tags)]
+    return command
+
+
+def build(out: Path, platforms: list[str] | None, blender_ext: str | None = None) -> str:
+    """Everything: returns the summary (first line: zips and sizes, then wheels per zip)."""
+    tools = find_blender_exts(blender_ext)
+    newest = tools[0]
+    print(f"blender_ext.py of {newest.label()}: {rel(newest.path)} (run by {newest.python})")
+    ext = load_blender_ext(newest.path)
     manifest_text = MANIFEST.read_text()
     try:
         manifest = tomllib.loads(manifest_text)
@@ -301,28 +429,34 @@ def build(out: Path, platforms: list[str] | None) -> str:
     }
     for path in zips.values():
         path.unlink(missing_ok=True)
-    command = [sys.executable, str(blender_ext_path), "build", "--source-dir", str(STAGE),
-               "--output-dir", str(out), "--split-platforms"]
-    if valid_tags.is_file():
-        command += ["--valid-tags", str(valid_tags)]
-    run_tool(command, "blender_ext.py build")
+    command = tool_command(newest, "build", "--source-dir", str(STAGE),
+                           "--output-dir", str(out), "--split-platforms")
+    run_tool(command, f"blender_ext.py build ({newest.label()})")
 
-    parts = []
+    parts, details = [], []
     for platform, path in zips.items():
         if not path.is_file():
             raise BuildError(f"blender_ext.py build did not write {rel(path)}")
-        command = [sys.executable, str(blender_ext_path), "validate"]
-        if valid_tags.is_file():
-            command += ["--valid-tags", str(valid_tags)]
-        run_tool([*command, str(path)], f"blender_ext.py validate {path.name}")
+        for tool in tools:
+            run_tool([*tool_command(tool, "validate"), str(path)],
+                     f"blender_ext.py validate {path.name} ({tool.label()})")
         check_zip(path, plan[platform])
         size = path.stat().st_size
         print(f"{rel(path)}: {size} bytes ({size / 1e6:.1f} MB)")
         parts.append(f"{rel(path)} ({size / 1e6:.1f} MB)")
+        pythons = ", ".join(PYTHONS[platform])
+        details.append(f"{path.name}: {size} bytes, {len(plan[platform])} wheels "
+                       f"(Python {pythons}):")
+        details += [f"  {Path(w).name}" for w in sorted(plan[platform])]
     versions = manifest["blender_version_min"] + (
         f" to <{manifest['blender_version_max']}" if "blender_version_max" in manifest else "+"
     )
-    return f"{manifest['id']} {manifest['version']} (Blender {versions}): " + ", ".join(parts)
+    validated = " and ".join(t.label() for t in tools)
+    return "\n".join([
+        f"{manifest['id']} {manifest['version']} (Blender {versions}): " + ", ".join(parts),
+        f"built and validated with the blender_ext.py of {validated}",
+        *details,
+    ])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -333,10 +467,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="directory for the zip(s) (default: dist/)")
     parser.add_argument("--platform", action="append", metavar="PLATFORM",
                         help="build only this manifest platform, e.g. linux-x64 (repeatable)")
+    parser.add_argument("--blender-ext", metavar="PATH",
+                        help="the newest Blender's blender_ext.py, or a Python/venv with that "
+                        "bpy (default: $SPECTRAL_BLENDER_EXT, else the newest bpy of this "
+                        "interpreter and .venvs/*/)")
     args = parser.parse_args(argv)
     out = args.out.resolve()
     try:
-        summary = build(out, args.platform)
+        summary = build(out, args.platform, args.blender_ext)
     except BuildError as error:
         print(f"build_extension: error: {error}", file=sys.stderr)
         return 1
