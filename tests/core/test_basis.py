@@ -189,12 +189,14 @@ class TestLinearModelBasis:
         np.testing.assert_allclose(b.vectors[:, 0], x / np.linalg.norm(x), atol=1e-12)
 
 
+# Module-level (pytest 9 deprecates class-scoped fixtures defined as instance methods).
+@pytest.fixture(scope="module")
+def basis8(reflectances, lights):
+    return linear_model_basis(WL, reflectances, lights, count=8)
+
+
 class TestProjection:
     """``project`` / ``reconstruct`` / ``relative_error``."""
-
-    @pytest.fixture(scope="class")
-    def basis8(self, reflectances, lights):
-        return linear_model_basis(WL, reflectances, lights, count=8)
 
     def test_exact_inside_span(self, basis8):
         rng = np.random.default_rng(0)

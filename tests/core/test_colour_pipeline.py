@@ -197,6 +197,12 @@ class TestXyzToLab:
         np.testing.assert_allclose(out, np.tile(lab, (2, 3, 4, 1)), atol=1e-12)
 
 
+# Module-level (pytest 9 deprecates class-scoped fixtures defined as instance methods).
+@pytest.fixture(scope="module")
+def white():
+    return white_xyz("D65", WL)
+
+
 class TestDeltaE94:
     """:func:`delta_e94`: CIE 1994 (graphic arts) on the protocol's CIELAB."""
 
@@ -206,10 +212,6 @@ class TestDeltaE94:
     LAB_1 = np.array([50.0, 30.0, 40.0])
     LAB_2 = np.array([45.0, 25.0, 35.0])
     REFERENCE = 5.47752603
-
-    @pytest.fixture(scope="class")
-    def white(self):
-        return white_xyz("D65", WL)
 
     def test_by_hand(self, white):
         assert cie94_by_hand(self.LAB_1, self.LAB_2) == pytest.approx(self.REFERENCE, abs=1e-8)

@@ -64,12 +64,14 @@ def protocol_sphere(incidence_deg: float, size: int):
     return wi, wo, lit, inside
 
 
+# Module-level (pytest 9 deprecates class-scoped fixtures defined as instance methods).
+@pytest.fixture(scope="module")
+def pairs():
+    return random_direction_pairs()
+
+
 class TestRandomDirectionPairs:
     """:func:`random_direction_pairs`: uniform in solid angle on the upper hemisphere."""
-
-    @pytest.fixture(scope="class")
-    def pairs(self):
-        return random_direction_pairs()
 
     def test_defaults(self, pairs):
         wi, wo = pairs
