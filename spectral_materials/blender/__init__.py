@@ -2,23 +2,50 @@
 
 ``register()`` / ``unregister()`` add and remove, in order, the property groups, the
 operators, the panels and the draw handlers; explicit class lists live in each module.
+
+Before anything else, the colour-science and SciPy that would load are checked
+(:func:`spectral_materials.dependency_problems`): if another extension supplied a copy too
+old for this add-on, the submodules (which import them) are not imported and
+``register()`` raises one :class:`~spectral_materials.DependencyError` naming the package
+and the version it needs, having registered nothing. Should a step of ``register()`` fail
+for any other reason, the steps already done are undone before the error propagates.
 """
 
 from __future__ import annotations
 
-import bpy
+from .. import DependencyError, dependency_message, dependency_problems
 
-from . import draw, operators, panels, properties
+_PROBLEMS = dependency_problems()
+if not _PROBLEMS:
+    import bpy
+
+    from . import draw, operators, panels, properties
 
 
 def register() -> None:
-    properties.register()
-    for cls in operators.CLASSES + panels.CLASSES:
-        bpy.utils.register_class(cls)
-    draw.register()
+    # Checked at import (the submodules import colour and scipy) and again here.
+    if problems := _PROBLEMS or dependency_problems():
+        raise DependencyError(dependency_message(problems))
+    undo = []
+    try:
+        properties.register()
+        undo.append(properties.unregister)
+        for cls in operators.CLASSES + panels.CLASSES:
+            bpy.utils.register_class(cls)
+            undo.append(lambda cls=cls: bpy.utils.unregister_class(cls))
+        draw.register()
+    except BaseException:
+        for step in reversed(undo):
+            try:
+                step()
+            except Exception:  # noqa: BLE001 - the original error is the one to report
+                pass
+        raise
 
 
 def unregister() -> None:
+    if _PROBLEMS:
+        return  # register() refused: nothing was registered
     draw.unregister()
     for cls in reversed(operators.CLASSES + panels.CLASSES):
         bpy.utils.unregister_class(cls)

@@ -1,15 +1,17 @@
 """Install the extension zip into a fresh Blender user directory and use it (a subprocess).
 
 ``python extension_probe.py ZIP RESULT_JSON``, run by ``test_extension_install.py`` in a
-fresh ``.venv/bin/python`` with ``BLENDER_USER_RESOURCES`` pointing at a temporary
-directory. Before ``import bpy`` it installs a ``sys.meta_path`` finder that lets the
-top-level names the extension bundles (``colour``, ``scipy``, ``imageio``, ``PIL``,
-``typing_extensions``, ``OpenEXR``) import only from under that directory, and
-``spectral_materials`` never (the extension imports itself as
-``bl_ext.user_default.spectral_materials``): the checkout's editable install and the
-.venv copies are invisible, so whatever runs is the installed copy and its wheels. Each
-stage's outcome goes to RESULT_JSON, which the test reads; stages stop at the first
-failure, whose traceback is recorded.
+fresh process of the interpreter running the tests (each leg's venv and its bpy) with
+``BLENDER_USER_RESOURCES`` pointing at a temporary directory. Before ``import bpy`` it
+installs a ``sys.meta_path`` finder that lets the top-level names the extension bundles
+(``colour``, ``scipy``, ``imageio``, ``PIL``, ``typing_extensions``, ``OpenEXR``) import
+only from under that directory, and ``spectral_materials`` never (the extension imports
+itself as ``bl_ext.user_default.spectral_materials``): the checkout's editable install and
+the venv's copies are invisible, so whatever runs is the installed copy and its wheels. It
+installs, enables, factors one material with the add-on's operator, draws the scene
+offscreen through the installed glsl/ and writes the EXR images. Each stage's outcome goes
+to RESULT_JSON, which the test reads; stages stop at the first failure, whose traceback is
+recorded.
 """
 
 from __future__ import annotations
@@ -88,6 +90,8 @@ def main(zip_path: str, result_path: str) -> int:
         import bpy
 
         times["import_bpy"] = time.perf_counter() - start
+        result["blender_version"] = list(bpy.app.version)
+        result["python_version"] = list(sys.version_info[:2])
         extensions = Path(bpy.utils.user_resource("EXTENSIONS"))
         site = extensions / ".local" / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}"
         site = site / "site-packages"
@@ -112,6 +116,13 @@ def main(zip_path: str, result_path: str) -> int:
         result["site_packages_entries"] = sorted(p.name for p in site.iterdir()) \
             if site.is_dir() else []
         result["site_on_sys_path"] = str(site) in sys.path
+        # Tags of the wheels Blender installed (it picks those matching its own Python).
+        result["wheel_tags"] = {
+            info.name: [line.split(":", 1)[1].strip()
+                        for line in (info / "WHEEL").read_text().splitlines()
+                        if line.startswith("Tag:")]
+            for info in sorted(site.glob("*.dist-info")) if (info / "WHEEL").is_file()
+        } if site.is_dir() else {}
 
         result["stage"] = "enabled"
         import addon_utils

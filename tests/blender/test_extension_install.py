@@ -1,13 +1,21 @@
 """The packaged extension installs into a fresh Blender and runs from its own copy.
 
-``scripts/build_extension`` builds the zip for this machine's platform (once per module;
-``SPECTRAL_EXTENSION_ZIP=path`` tests a prebuilt zip instead). ``extension_probe.py`` then
-runs in a fresh ``.venv`` Python with a temporary Blender user directory
-(``BLENDER_USER_RESOURCES``), installs the zip with
-``bpy.ops.extensions.package_install_files(repo="user_default", enable_on_install=True)``
-and factors one material through the installed add-on. The probe hides the checkout's
-editable ``spectral_materials`` and the .venv's colour, scipy, imageio, PIL and
-typing_extensions, so only the installed copy and its bundled wheels can run.
+``scripts/build_extension.py`` builds the zip for this machine's platform (once per
+module; ``SPECTRAL_EXTENSION_ZIP=path`` tests a prebuilt zip instead). ``extension_probe.py``
+then runs in a fresh process of the interpreter running these tests (``sys.executable``:
+each test leg's venv, so the bpy 4.5, 5.0, 5.2 or 5.3 of that leg) with a temporary
+Blender user directory (``BLENDER_USER_RESOURCES``), installs the zip with
+``bpy.ops.extensions.package_install_files(repo="user_default", enable_on_install=True)``,
+factors one material through the installed add-on, draws it offscreen and writes EXR
+images. The probe hides the checkout's ``spectral_materials`` and the venv's colour,
+scipy, imageio, PIL, typing_extensions and OpenEXR, so only the installed copy and the
+bundled wheels matching that Blender's Python can run.
+
+Bad input: a Blender older than ``blender_version_min`` refuses the zip with Blender's own
+message (``blender_ext.py``'s ``repository_filter_skip``, the check behind install), and
+``register()`` refuses, with one error naming the package and the version it needs and
+having registered nothing, when an older colour-science or SciPy comes first on
+``sys.path`` (as another extension's wheel would).
 """
 
 from __future__ import annotations
@@ -23,13 +31,12 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-BUILD = ROOT / "scripts" / "build_extension"
+BUILD = ROOT / "scripts" / "build_extension.py"
 PROBE = Path(__file__).with_name("extension_probe.py")
-VENV_PYTHON = ROOT / ".venv" / "bin" / "python"
 ADDON = "bl_ext.user_default.spectral_materials"
 BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions", "OpenEXR")
 STAGES = ("start", "import bpy", "read_homefile", "install", "enabled", "bundled wheels",
-          "operator", "factor", "done")
+          "operator", "factor", "draw", "done")
 
 pytestmark = pytest.mark.skipif(
     importlib.util.find_spec("bpy") is None,
@@ -58,8 +65,9 @@ def extension_zip(tmp_path_factory) -> Path:
     if target is None:
         pytest.skip(f"no Blender platform name for {platform.system()} {platform.machine()}")
     out = tmp_path_factory.mktemp("dist")
+    # This interpreter's bpy validates the zip too (with the newest of .venvs/*/, if newer).
     done = subprocess.run(
-        [str(BUILD), "--out", str(out), "--platform", target],
+        [sys.executable, str(BUILD), "--out", str(out), "--platform", target],
         capture_output=True, text=True, timeout=600,
     )
     output = tail(done.stdout + done.stderr)
@@ -79,10 +87,9 @@ def probe(extension_zip, tmp_path_factory) -> dict:
         if not k.startswith(("BLENDER_USER_", "BLENDER_SYSTEM_", "PYTHON"))
     }
     env.update(BLENDER_USER_RESOURCES=str(user), PYTHONNOUSERSITE="1")
-    python = str(VENV_PYTHON) if VENV_PYTHON.exists() else sys.executable
     result_path = work / "result.json"
     done = subprocess.run(
-        [python, str(PROBE), str(extension_zip), str(result_path)],
+        [sys.executable, str(PROBE), str(extension_zip), str(result_path)],
         cwd=work, env=env, capture_output=True, text=True, timeout=600,
     )
     output = tail(done.stdout + done.stderr)
@@ -164,3 +171,138 @@ def test_installed_extension_draws_through_its_glsl_and_writes_exr(probe):
     assert probe["draw_objects"] == ["probe"] and probe["draw_covered"] > 0
     assert under(probe["openexr_origin"], probe["site_packages"])
     assert all(Path(p).is_file() for p in probe["draw_paths"].values())
+
+
+def test_probe_ran_this_blender_with_the_wheels_for_its_python(probe):
+    # The probe is this leg's Blender: Blender installed only the wheels for its Python.
+    require(probe, "bundled wheels")
+    import bpy
+
+    assert probe["blender_version"] == list(bpy.app.version)
+    assert probe["python_version"] == list(sys.version_info[:2])
+    tag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    tags = probe["wheel_tags"]
+    assert {name.split("-")[0].lower() for name in tags} >= {
+        "scipy", "colour_science", "pillow", "openexr", "imageio", "typing_extensions"}, tags
+    for name, wheel_tags in tags.items():
+        assert all(t.startswith((f"{tag}-{tag}-", "py3-none-any")) for t in wheel_tags), (
+            name, wheel_tags)
+    assert tags[next(n for n in tags if n.startswith("scipy-"))][0].startswith(tag)
+
+
+# --- Bad input -----------------------------------------------------------------------------
+
+def load_blender_ext():
+    """This interpreter's Blender extension tool, imported (never through bpy)."""
+    spec = importlib.util.find_spec("bpy")
+    assert spec is not None and spec.origin is not None
+    found = sorted(Path(spec.origin).parent.glob(
+        "*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
+    assert found, "no blender_ext.py in this bpy"
+    loaded = importlib.util.spec_from_file_location("_blender_ext_for_tests", found[-1])
+    module = importlib.util.module_from_spec(loaded)
+    loaded.loader.exec_module(module)
+    return module
+
+
+def manifest_item(ext) -> dict:
+    """The manifest as Blender's install check reads it (with the wheels' Python versions)."""
+    import tomllib
+
+    item = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    versions = ext.python_versions_from_wheels(item["wheels"])
+    assert not isinstance(versions, str), versions
+    item["python_versions"] = sorted(".".join(map(str, v)) for v in versions)
+    return item
+
+
+def install_refusal(ext, item, blender, platform_name, python) -> str | None:
+    """Blender's message for refusing ``item`` on that system, or None if it installs."""
+    messages, errors = [], []
+    skipped = ext.repository_filter_skip(
+        item, filter_blender_version=blender, filter_platform=platform_name,
+        filter_python_version=python, skip_message_fn=messages.append,
+        error_fn=errors.append,
+    )
+    assert not errors, errors
+    assert skipped == bool(messages)
+    return messages[0] if messages else None
+
+
+@pytest.mark.parametrize("blender, platform_name, python", [
+    ((4, 5, 0), "linux-x64", (3, 11, 0)),
+    ((4, 5, 0), "macos-x64", (3, 11, 0)),
+    ((5, 0, 1), "windows-x64", (3, 11, 0)),
+    ((5, 1, 0), "windows-arm64", (3, 13, 0)),
+    ((5, 2, 0), "macos-arm64", (3, 13, 0)),
+    ((5, 3, 0), "linux-x64", (3, 13, 0)),
+])
+def test_every_supported_blender_accepts_the_manifest(blender, platform_name, python):
+    ext = load_blender_ext()
+    assert install_refusal(ext, manifest_item(ext), blender, platform_name, python) is None
+
+
+@pytest.mark.parametrize("blender, platform_name, python, expected", [
+    ((4, 4, 3), "linux-x64", (3, 11, 0), "4.5.0"),       # too old: blender_version_min
+    ((4, 2, 0), "windows-x64", (3, 11, 0), "4.5.0"),
+    ((6, 0, 0), "linux-x64", (3, 13, 0), "6.0.0"),       # the declared maximum
+    ((5, 3, 0), "linux-x64", (3, 14, 0), "3.14"),        # a Python no wheel is built for
+    ((4, 5, 0), "linux-arm64", (3, 11, 0), "linux-arm64"),
+])
+def test_blender_outside_the_range_refuses_with_its_own_message(
+        blender, platform_name, python, expected):
+    ext = load_blender_ext()
+    message = install_refusal(ext, manifest_item(ext), blender, platform_name, python)
+    assert message is not None and expected in message, message
+
+
+REGISTER_WITH_OLD = """
+import json, sys
+sys.path.insert(0, sys.argv[1])         # the old copy, first (as another extension's wheel)
+import bpy
+import spectral_materials.blender as adapters
+try:
+    adapters.register()
+    error = None
+except Exception as exc:
+    error = [type(exc).__name__, str(exc)]
+print(json.dumps({
+    "error": error,
+    "operator": hasattr(bpy.types, "SPECTRAL_OT_factor_material"),
+    "material_property": hasattr(bpy.types.Material, "spectral"),
+    "submodules": sorted(m for m in sys.modules if m.startswith("spectral_materials.blender.")),
+    "imported": sorted(m for m in ("colour", "scipy") if m in sys.modules),
+}))
+"""
+
+
+@pytest.mark.parametrize("dist, module, old, needed", [
+    ("scipy", "scipy", "1.5.4", "1.13.0"),
+    ("colour-science", "colour", "0.3.16", "0.4.6"),
+])
+def test_register_refuses_an_old_dependency_with_one_message(tmp_path, dist, module, old,
+                                                            needed):
+    # An old copy as an installed wheel leaves it: the package and its .dist-info.
+    (tmp_path / module).mkdir()
+    (tmp_path / module / "__init__.py").write_text(
+        f"raise ImportError('the old {module} must never be imported')\n")
+    info = tmp_path / f"{dist.replace('-', '_')}-{old}.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: {old}\n")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    env["PYTHONPATH"] = str(ROOT)
+    done = subprocess.run(
+        [sys.executable, "-c", REGISTER_WITH_OLD, str(tmp_path)],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert done.returncode == 0, tail(done.stdout + done.stderr)
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["error"] is not None, "register() accepted an old " + dist
+    kind, message = result["error"]
+    assert kind == "DependencyError"
+    assert f"{dist} {old}" in message and f"{dist} >= {needed}" in message, message
+    assert message.startswith("Spectral Materials cannot start: ") and "\n" not in message
+    assert message.count("cannot start") == 1
+    # Nothing registered, nothing half-imported.
+    assert not result["operator"] and not result["material_property"]
+    assert result["submodules"] == [] and result["imported"] == []
