@@ -1,7 +1,8 @@
 """Build the Spectral Materials Blender extension: stage, bundle wheels, build, validate.
 
 Run it through the wrapper,
-``scripts/build_extension [--out DIR] [--platform P ...] [--blender-ext PATH]``:
+``scripts/build_extension [--out DIR] [--platform P ...] [--blender-ext PATH]
+[--stage DIR]``:
 
 1. stages a clean copy in ``build/extension/``: the ``spectral_materials/`` package and
    ``glsl/`` (no ``__pycache__``), ``blender_manifest.toml`` and a thin root
@@ -344,19 +345,22 @@ def staged_manifest(text: str, platforms: list[str], wheels: list[str]) -> str:
     return new
 
 
-def stage(manifest_text: str, wheels: list[str], cache: Path) -> None:
-    """A clean build/extension/: package, glsl, root __init__.py, manifest, wheels."""
-    if STAGE.exists():
-        shutil.rmtree(STAGE)
-    STAGE.mkdir(parents=True)
+def stage(manifest_text: str, wheels: list[str], cache: Path, where: Path) -> None:
+    """A clean ``where`` (build/extension/): package, glsl, root __init__.py, manifest, wheels."""
+    if where.exists():
+        if any(where.iterdir()) and not (where / "blender_manifest.toml").is_file():
+            raise BuildError(f"--stage {where} is neither empty nor an earlier staging "
+                             "directory; refusing to empty it")
+        shutil.rmtree(where)
+    where.mkdir(parents=True)
     for name in STAGED_DIRS:
         if (ROOT / name).is_dir():
-            shutil.copytree(ROOT / name, STAGE / name, ignore=IGNORED)
-    shutil.copy2(INIT_TEMPLATE, STAGE / "__init__.py")
-    (STAGE / "blender_manifest.toml").write_text(manifest_text)
-    (STAGE / "wheels").mkdir()
+            shutil.copytree(ROOT / name, where / name, ignore=IGNORED)
+    shutil.copy2(INIT_TEMPLATE, where / "__init__.py")
+    (where / "blender_manifest.toml").write_text(manifest_text)
+    (where / "wheels").mkdir()
     for wheel in wheels:
-        shutil.copy2(cache / Path(wheel).name, STAGE / wheel)
+        shutil.copy2(cache / Path(wheel).name, where / wheel)
 
 
 def run_tool(command: list[str], what: str) -> str:
@@ -393,7 +397,8 @@ def tool_command(tool: BlenderExt, *args: str) -> list[str]:
     return command
 
 
-def build(out: Path, platforms: list[str] | None, blender_ext: str | None = None) -> str:
+def build(out: Path, platforms: list[str] | None, blender_ext: str | None = None,
+          staging: Path = STAGE) -> str:
     """Everything: returns the summary (first line: zips and sizes, then wheels per zip)."""
     tools = find_blender_exts(blender_ext)
     newest = tools[0]
@@ -419,8 +424,8 @@ def build(out: Path, platforms: list[str] | None, blender_ext: str | None = None
               if any(w in plan[p] for p in targets)]
     if targets != declared:
         manifest_text = staged_manifest(manifest_text, targets, wheels)
-    stage(manifest_text, wheels, WHEEL_CACHE)
-    print(f"staged {rel(STAGE)}/ ({len(wheels)} wheels)")
+    stage(manifest_text, wheels, WHEEL_CACHE, staging)
+    print(f"staged {rel(staging)}/ ({len(wheels)} wheels)")
 
     out.mkdir(parents=True, exist_ok=True)
     zips = {
@@ -429,7 +434,7 @@ def build(out: Path, platforms: list[str] | None, blender_ext: str | None = None
     }
     for path in zips.values():
         path.unlink(missing_ok=True)
-    command = tool_command(newest, "build", "--source-dir", str(STAGE),
+    command = tool_command(newest, "build", "--source-dir", str(staging),
                            "--output-dir", str(out), "--split-platforms")
     run_tool(command, f"blender_ext.py build ({newest.label()})")
 
@@ -471,10 +476,13 @@ def main(argv: list[str] | None = None) -> int:
                         help="the newest Blender's blender_ext.py, or a Python/venv with that "
                         "bpy (default: $SPECTRAL_BLENDER_EXT, else the newest bpy of this "
                         "interpreter and .venvs/*/)")
+    parser.add_argument("--stage", type=Path, default=STAGE,
+                        help="staging directory, emptied first (default: build/extension/; "
+                        "give each concurrent build its own)")
     args = parser.parse_args(argv)
     out = args.out.resolve()
     try:
-        summary = build(out, args.platform, args.blender_ext)
+        summary = build(out, args.platform, args.blender_ext, args.stage.resolve())
     except BuildError as error:
         print(f"build_extension: error: {error}", file=sys.stderr)
         return 1

@@ -67,7 +67,8 @@ def extension_zip(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("dist")
     # This interpreter's bpy validates the zip too (with the newest of .venvs/*/, if newer).
     done = subprocess.run(
-        [sys.executable, str(BUILD), "--out", str(out), "--platform", target],
+        [sys.executable, str(BUILD), "--out", str(out), "--platform", target,
+         "--stage", str(tmp_path_factory.mktemp("stage"))],
         capture_output=True, text=True, timeout=600,
     )
     output = tail(done.stdout + done.stderr)
@@ -155,7 +156,7 @@ def test_installed_operator_factors_a_material(probe):
             "does not provide the factor operator (yet)",
             pytrace=False,
         )
-    require(probe, "done")
+    require(probe, "factor")
     assert probe["operator_module"].startswith(ADDON + "."), probe["operator_module"]
     assert probe["factor_result"] == ["FINISHED"]
     assert probe["result_packs"] == 1
