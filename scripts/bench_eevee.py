@@ -65,7 +65,7 @@ import bpy  # noqa: E402
 from bench_common import gpu_machine  # noqa: E402  (scripts/, next to this file)
 
 from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import draw, eevee, storage  # noqa: E402
+from spectral_materials.blender import compat, draw, eevee, storage  # noqa: E402
 from spectral_materials.blender.gpu_context import ensure_gpu  # noqa: E402
 from spectral_materials.core import spectra  # noqa: E402
 from spectral_materials.core.factored import FactoredBRDF  # noqa: E402
@@ -158,7 +158,7 @@ def build_scene(size: int):
     black_world = getattr(eevee, "black_world", None) or eevee._black_world
     scene.world = black_world("Bench black")
     render = scene.render
-    render.engine = "BLENDER_EEVEE"
+    render.engine = compat.EEVEE_ENGINE
     render.resolution_x = render.resolution_y = size
     render.resolution_percentage = 100
     render.image_settings.file_format = "OPEN_EXR"

@@ -10,7 +10,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from spectral_materials.blender import draw, eevee, scene_lights
+from spectral_materials.blender import compat, draw, eevee, scene_lights
 from spectral_materials.core import colour_pipeline
 from spectral_materials.core.formats.exr import read_exr
 
@@ -18,7 +18,7 @@ from spectral_materials.core.formats.exr import read_exr
 def render_eevee(scene, width: int, height: int) -> tuple[np.ndarray, float]:
     """EEVEE's render of the scene from its camera as protocol XYZ (row 0 at the bottom)."""
     render = scene.render
-    render.engine = "BLENDER_EEVEE"
+    render.engine = compat.EEVEE_ENGINE
     render.resolution_x, render.resolution_y = width, height
     render.resolution_percentage = 100
     render.filter_size = 0.0            # pixel centres, as the draw path and the reference

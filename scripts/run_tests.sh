@@ -1,12 +1,39 @@
 #!/usr/bin/env bash
-# The test command: set up the pinned environment, lint, run the default (non-slow) suite,
-# then the main job in its quick mode (every demo section at small sizes), so that what CI
-# proves includes the demo running to the end in one process on a clean checkout.
+# The test command: set up the pinned environment of each test leg (scripts/setup_env.sh LEG),
+# lint once, run the default (non-slow) suite on the oldest and the newest Blender (legs 4.5
+# and 5.3), the bpy/GPU/install tests (tests/blender, tests/gpu) on the two between (5.0 and
+# 5.2), then the main job in its quick mode (every demo section at small sizes) on the
+# default leg (.venv), so that what CI proves includes the demo running to the end in one
+# process on a clean checkout. Arguments go to pytest on every leg. One line per leg with
+# its wall time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup_env.sh
+FULL_LEGS=(4.5 5.3)
+BLENDER_LEGS=(5.0 5.2)
+bash scripts/setup_env.sh  # the default leg, and .venv pointing to it
 .venv/bin/ruff check .
-.venv/bin/python -m pytest -q "$@"
+failed=()
+# leg LEG PYTEST-ARGS...: set up .venvs/LEG and run pytest there; report and remember failure.
+leg() {
+  local name="$1" start status=0
+  shift
+  start=$SECONDS
+  bash scripts/setup_env.sh "$name" || status=$?
+  if [ "$status" -eq 0 ]; then
+    ".venvs/$name/bin/python" -m pytest -q "$@" || status=$?
+  fi
+  local what="$*"
+  echo "leg $name (bpy $(".venvs/$name/bin/python" -c 'import importlib.metadata as m; print(m.version("bpy"))' 2>/dev/null || echo '?')): ${what:-full suite}:" \
+    "$([ "$status" -eq 0 ] && echo passed || echo "FAILED ($status)") in $((SECONDS - start)) s"
+  [ "$status" -eq 0 ] || failed+=("$name")
+}
+for name in "${FULL_LEGS[@]}"; do
+  leg "$name" "$@"
+done
+for name in "${BLENDER_LEGS[@]}"; do
+  leg "$name" tests/blender tests/gpu "$@"
+done
+start=$SECONDS
 demo_out="$(mktemp -d)"
 trap 'rm -rf "$demo_out"' EXIT
 if ! .venv/bin/python scripts/demo.py --quick --quiet --out "$demo_out" >"$demo_out/log" 2>&1
@@ -15,4 +42,8 @@ then
   echo "run_tests: the quick demo (scripts/demo --quick) failed" >&2
   exit 1
 fi
-echo "demo --quick: $(tail -n 1 "$demo_out/log")"
+echo "demo --quick ($(readlink .venv)): $(tail -n 1 "$demo_out/log") in $((SECONDS - start)) s"
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "run_tests: failing legs: ${failed[*]}" >&2
+  exit 1
+fi

@@ -18,7 +18,7 @@ import bpy
 import numpy as np
 
 from ..core import colour_pipeline, prefilter
-from . import eevee_nodes, scene_lights, sources, storage
+from . import compat, eevee_nodes, scene_lights, sources, storage
 
 FRAME_NAME = "SM EEVEE"
 ORIGINAL_KEY = "sm_eevee_original"
@@ -98,7 +98,7 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
                if len(model.grid.shape) == 4 else ""))
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group.name = eevee_nodes.group_name(material)
-    material.use_nodes = True
+    compat.ensure_node_tree(material)
     tree = material.node_tree
     output = _output_node(tree)
     if output is None:
@@ -240,8 +240,9 @@ def remove_eevee(material, scene=None) -> bool:
 
 
 def working_space() -> str:
-    """The file's scene-linear working colour space (Blender 5.0: Rec.709, Rec.2020, ACEScg)."""
-    return bpy.data.colorspace.working_space
+    """The file's scene-linear working colour space (Blender 5.0: Rec.709, Rec.2020, ACEScg;
+    4.x: always Rec.709)."""
+    return compat.working_space()
 
 
 def _include_again(light, material) -> None:
@@ -372,12 +373,14 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
             scene.collection.objects.link(obj)
         scene.camera = camera
         scene.world = scratch.add("worlds", black_world("SM EEVEE black"))
-        if previous_space != PROTOCOL_WORKING_SPACE:
-            bpy.ops.wm.set_working_color_space(working_space=PROTOCOL_WORKING_SPACE,
-                                               convert_colors=False)
+        # Blender 4.x renders in its one scene-linear space, which scene_linear_to_xyz
+        # below then undoes instead of the protocol's.
+        space = PROTOCOL_WORKING_SPACE if compat.can_set_working_space() else previous_space
+        if previous_space != space:
+            bpy.ops.wm.set_working_color_space(working_space=space, convert_colors=False)
         counts = apply_eevee(material, scene, light_object=sun)
         render = scene.render
-        render.engine = "BLENDER_EEVEE"
+        render.engine = compat.EEVEE_ENGINE
         render.resolution_x = render.resolution_y = size
         render.resolution_percentage = 100
         render.filter_size = 0.0
@@ -394,9 +397,8 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
             seconds = time.perf_counter() - start
             channels, _ = read_exr(Path(folder) / "sphere.exr")
         rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
-        xyz = scene_linear_to_xyz(rgb, scene.spectral.adaptation_white,
-                                  PROTOCOL_WORKING_SPACE)
-        return xyz, {"seconds": seconds, "working_space": PROTOCOL_WORKING_SPACE, **counts}
+        xyz = scene_linear_to_xyz(rgb, scene.spectral.adaptation_white, space)
+        return xyz, {"seconds": seconds, "working_space": space, **counts}
     finally:
         if working_space() != previous_space:
             bpy.ops.wm.set_working_color_space(working_space=previous_space,

@@ -18,6 +18,8 @@ from collections.abc import Iterator
 
 import bpy
 
+from . import compat
+
 _READY = False
 
 
@@ -42,7 +44,7 @@ def _tiny_render() -> None:
     try:
         scene.collection.objects.link(camera)
         scene.camera = camera
-        scene.render.engine = "BLENDER_EEVEE"
+        scene.render.engine = compat.EEVEE_ENGINE
         scene.render.resolution_x = scene.render.resolution_y = 4
         scene.render.resolution_percentage = 100
         bpy.ops.render.render(scene=scene.name)
