@@ -33,17 +33,56 @@ BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions", "OpenEXR")
 NEVER = ("spectral_materials",)
 
 
+def blender_own(names: tuple[str, ...]) -> tuple[str, ...]:
+    """Those of ``names`` that Blender itself imports, through its own dependencies.
+
+    bpy 5.2+ requires cattrs, which imports typing_extensions while Blender starts (a real
+    Blender 5.2 ships both in its own Python): that copy is Blender's, loaded before any
+    extension, so the probe neither hides nor checks it.
+    """
+    import importlib.metadata as metadata
+
+    seen, todo = set(), ["bpy"]
+    while todo:
+        dist = todo.pop()
+        key = dist.lower().replace("_", "-")
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            requires = metadata.requires(dist) or []
+        except metadata.PackageNotFoundError:
+            continue
+        for req in requires:
+            if "extra ==" in req:
+                continue
+            name = req.split(";")[0].strip()
+            for sep in "<>=!~[ (":
+                name = name.split(sep)[0]
+            todo.append(name)
+    seen.discard("bpy")
+    providers = metadata.packages_distributions()
+    return tuple(
+        n for n in names
+        if any(d.lower().replace("_", "-") in seen for d in providers.get(n, ()))
+    )
+
+
+OWN = blender_own(BUNDLED)
+CHECKED = tuple(n for n in BUNDLED if n not in OWN)
+
+
 class OnlyUnder(importlib.abc.MetaPathFinder):
-    """Top-level ``BUNDLED`` names import only from sys.path entries under ``root``."""
+    """Top-level ``CHECKED`` names import only from sys.path entries under ``root``."""
 
     def __init__(self, root: Path):
         self.root = str(root.resolve())
         self.refused: list[str] = []
 
     def find_spec(self, fullname, path=None, target=None):
-        if "." in fullname or fullname not in (*BUNDLED, *NEVER):
+        if "." in fullname or fullname not in (*CHECKED, *NEVER):
             return None  # submodules follow their (already vetted) parent package
-        if fullname in BUNDLED:
+        if fullname in CHECKED:
             allowed = [p for p in sys.path if os.path.realpath(p or ".").startswith(self.root)]
             spec = importlib.machinery.PathFinder.find_spec(fullname, allowed)
             if spec is not None:
@@ -62,7 +101,8 @@ def main(zip_path: str, result_path: str) -> int:
     user = Path(os.environ["BLENDER_USER_RESOURCES"])
     finder = OnlyUnder(user)
     sys.meta_path.insert(0, finder)
-    result: dict = {"stage": "start", "zip": zip_path, "user_resources": str(user)}
+    result: dict = {"stage": "start", "zip": zip_path, "user_resources": str(user),
+                    "blender_own": list(OWN)}
     times = result["seconds"] = {}
 
     def save() -> None:
@@ -72,11 +112,11 @@ def main(zip_path: str, result_path: str) -> int:
     # What the finder hides: the .venv copies a plain import would have found.
     result["hidden"] = {
         name: getattr(importlib.machinery.PathFinder.find_spec(name), "origin", None)
-        for name in (*BUNDLED, *NEVER)
+        for name in (*CHECKED, *NEVER)
     }
     # ... and that the finder hides them: nothing is installed yet, so each import fails.
     result["blocked_before_install"] = {}
-    for name in (*BUNDLED, *NEVER):
+    for name in (*CHECKED, *NEVER):
         try:
             __import__(name)
         except ModuleNotFoundError:
@@ -137,10 +177,10 @@ def main(zip_path: str, result_path: str) -> int:
         # Imported by the add-on itself while enabling (before the probe imports any).
         result["imported_by_addon"] = {
             name: getattr(sys.modules[name], "__file__", None)
-            for name in BUNDLED if name in sys.modules
+            for name in CHECKED if name in sys.modules
         }
         origins = {}
-        for name in BUNDLED:
+        for name in CHECKED:
             imported = __import__(name)
             origins[name] = imported.__file__
         result["bundled_origins"] = origins
@@ -171,7 +211,7 @@ def main(zip_path: str, result_path: str) -> int:
         result["result_packs"] = mat.spectral.result.packs
         # Anything the add-on imported lazily during the run came from the wheels too.
         result["modules_after_factor"] = {
-            name: getattr(sys.modules.get(name), "__file__", None) for name in BUNDLED
+            name: getattr(sys.modules.get(name), "__file__", None) for name in CHECKED
         }
 
         result["stage"] = "draw"
