@@ -310,3 +310,46 @@ def test_register_refuses_an_old_dependency_with_one_message(tmp_path, dist, mod
     # Nothing registered, nothing half-imported.
     assert not result["operator"] and not result["material_property"]
     assert result["submodules"] == [] and result["imported"] == []
+
+
+ENABLE_WITH_OLD = """
+import json, sys
+import bpy
+import addon_utils
+bpy.ops.wm.read_homefile(use_empty=True)
+bpy.ops.extensions.package_install_files(
+    filepath=sys.argv[1], repo="user_default", enable_on_install=False)
+sys.path.insert(0, sys.argv[2])         # another extension's old scipy comes first
+errors = []
+addon_utils.enable("ADDON", default_set=True, handle_error=errors.append)
+print(json.dumps({
+    "errors": [[type(e).__name__, str(e)] for e in errors],
+    "enabled": "ADDON" in bpy.context.preferences.addons,
+    "operator": hasattr(bpy.types, "SPECTRAL_OT_factor_material"),
+    "material_property": hasattr(bpy.types.Material, "spectral"),
+}))
+""".replace("ADDON", ADDON)
+
+
+def test_blender_enabling_the_installed_extension_over_an_old_scipy_reports_one_error(
+        extension_zip, tmp_path):
+    fake = tmp_path / "old"
+    (fake / "scipy").mkdir(parents=True)
+    (fake / "scipy" / "__init__.py").write_text("raise ImportError('old scipy imported')\n")
+    (fake / "scipy-1.5.4.dist-info").mkdir()
+    (fake / "scipy-1.5.4.dist-info" / "METADATA").write_text(
+        "Metadata-Version: 2.1\nName: scipy\nVersion: 1.5.4\n")
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("BLENDER_USER_", "BLENDER_SYSTEM_", "PYTHON"))}
+    env.update(BLENDER_USER_RESOURCES=str(tmp_path / "user"), PYTHONNOUSERSITE="1")
+    done = subprocess.run(
+        [sys.executable, "-c", ENABLE_WITH_OLD, str(extension_zip), str(fake)],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600,
+    )
+    assert done.returncode == 0, tail(done.stdout + done.stderr)
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert len(result["errors"]) == 1, result
+    kind, message = result["errors"][0]
+    assert kind == "DependencyError", result
+    assert "scipy 1.5.4" in message and "scipy >= 1.13.0" in message, message
+    assert not result["enabled"] and not result["operator"] and not result["material_property"]
