@@ -8,7 +8,14 @@
 # its wall time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-FULL_LEGS=(4.5 5.3)
+FULL_LEGS=(5.3)
+# Leg 4.5 (bpy 4.5.15) is opt-in (RUN_LEG_45=1) until its hang is fixed: a bpy 4.5 process
+# that rendered with EEVEE (gpu_context.ensure_gpu does) hangs at interpreter exit (futex
+# wait after the leak report), so every test that starts such a subprocess waits for its
+# 600 s timeout.
+if [ "${RUN_LEG_45:-0}" = 1 ]; then
+  FULL_LEGS=(4.5 5.3)
+fi
 BLENDER_LEGS=(5.0 5.2)
 bash scripts/setup_env.sh  # the default leg, and .venv pointing to it
 .venv/bin/ruff check .
