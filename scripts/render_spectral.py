@@ -88,4 +88,6 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from spectral_materials.blender.gpu_context import exit_process
+
+    exit_process(main())

@@ -1,21 +1,14 @@
 #!/usr/bin/env bash
 # The test command: set up the pinned environment of each test leg (scripts/setup_env.sh LEG),
 # lint once, run the default (non-slow) suite on the oldest and the newest Blender (legs 4.5
-# and 5.3), the bpy/GPU/install tests (tests/blender, tests/gpu) on the two between (5.0 and
-# 5.2), then the main job in its quick mode (every demo section at small sizes) on the
-# default leg (.venv), so that what CI proves includes the demo running to the end in one
-# process on a clean checkout. Arguments go to pytest on every leg. One line per leg with
-# its wall time.
+# and 5.3, OpenGL), the bpy/GPU/install tests (tests/blender, tests/gpu) on the two between
+# (5.0 and 5.2) and on 5.3 with Vulkan (Mesa lavapipe), then the main job in its quick mode
+# (every demo section at small sizes) on the default leg (.venv), so that what CI proves
+# includes the demo running to the end in one process on a clean checkout. Arguments go to
+# pytest on every leg. One line per leg with its wall time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-FULL_LEGS=(5.3)
-# Leg 4.5 (bpy 4.5.15) is opt-in (RUN_LEG_45=1) until its hang is fixed: a bpy 4.5 process
-# that rendered with EEVEE (gpu_context.ensure_gpu does) hangs at interpreter exit (futex
-# wait after the leak report), so every test that starts such a subprocess waits for its
-# 600 s timeout.
-if [ "${RUN_LEG_45:-0}" = 1 ]; then
-  FULL_LEGS=(4.5 5.3)
-fi
+FULL_LEGS=(4.5 5.3)
 BLENDER_LEGS=(5.0 5.2)
 bash scripts/setup_env.sh  # the default leg, and .venv pointing to it
 .venv/bin/ruff check .
@@ -30,16 +23,28 @@ leg() {
     ".venvs/$name/bin/python" -m pytest -q "$@" || status=$?
   fi
   local what="$*"
-  echo "leg $name (bpy $(".venvs/$name/bin/python" -c 'import importlib.metadata as m; print(m.version("bpy"))' 2>/dev/null || echo '?')): ${what:-full suite}:" \
+  echo "leg $name ${SPECTRAL_GPU_BACKEND:-} (bpy $(".venvs/$name/bin/python" -c 'import importlib.metadata as m; print(m.version("bpy"))' 2>/dev/null || echo '?')): ${what:-full suite}:" \
     "$([ "$status" -eq 0 ] && echo passed || echo "FAILED ($status)") in $((SECONDS - start)) s"
   [ "$status" -eq 0 ] || failed+=("$name")
 }
+# OpenGL on these legs even where a Vulkan driver is installed (bpy 5.3 would pick Vulkan):
+# no Vulkan ICD, and tests/gpu checks the backend it got (SPECTRAL_GPU_BACKEND).
+export VK_ICD_FILENAMES=/nonexistent.json SPECTRAL_GPU_BACKEND=OPENGL
 for name in "${FULL_LEGS[@]}"; do
   leg "$name" "$@"
 done
 for name in "${BLENDER_LEGS[@]}"; do
   leg "$name" tests/blender tests/gpu "$@"
 done
+# Vulkan: the bpy and GPU tests again on the newest Blender, through Mesa's lavapipe.
+lavapipe="$(compgen -G '/usr/share/vulkan/icd.d/lvp_icd.*.json' | head -n 1 || true)"
+if [ -n "$lavapipe" ]; then
+  VK_ICD_FILENAMES="$lavapipe" SPECTRAL_GPU_BACKEND=VULKAN leg 5.3 tests/blender tests/gpu "$@"
+else
+  echo "leg 5.3 on Vulkan: FAILED (no lavapipe ICD: apt-get install mesa-vulkan-drivers)"
+  failed+=("5.3-vulkan")
+fi
+unset VK_ICD_FILENAMES SPECTRAL_GPU_BACKEND
 start=$SECONDS
 demo_out="$(mktemp -d)"
 trap 'rm -rf "$demo_out"' EXIT

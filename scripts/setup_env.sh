@@ -84,12 +84,15 @@ fi
 # bpy loads X11/GL/EGL libraries at import even headless; a bare Debian image lacks some.
 # Headless drawing (the gpu tests, offscreen renders, EEVEE) also needs Mesa's EGL, GBM
 # and software rasteriser, which bpy's import does not check.
+# Mesa's software Vulkan (lavapipe) too, so that the Vulkan leg of run_tests.sh can draw.
 gpu_libraries_present() {
   ldconfig -p | grep -q 'libEGL_mesa.so.0' && ldconfig -p | grep -q 'libgbm.so.1' &&
+    ldconfig -p | grep -q 'libvulkan.so.1' && compgen -G '/usr/share/vulkan/icd.d/lvp_icd.*.json' >/dev/null &&
     { compgen -G '/usr/lib/*/dri/swrast_dri.so' >/dev/null || [ -e /usr/lib/dri/swrast_dri.so ]; }
 }
 if ! "$venv/bin/python" -c 'import bpy' >/dev/null 2>&1 || ! gpu_libraries_present; then
   apt_install libxrender1 libxi6 libxkbcommon0 libxxf86vm1 libxfixes3 libsm6 \
-    libgl1 libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libglu1-mesa || true
+    libgl1 libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1 libglu1-mesa \
+    libvulkan1 mesa-vulkan-drivers || true
   quietly "importing bpy in $venv (X11/GL libraries missing?)" "$venv/bin/python" -c 'import bpy'
 fi

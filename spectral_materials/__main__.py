@@ -1,6 +1,13 @@
 """``python -m spectral_materials``: the command line (see :mod:`spectral_materials.cli`)."""
 
+import sys
+
 from .cli import main
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    code = main()
+    if "bpy" in sys.modules:         # it used Blender: see gpu_context.exit_process
+        from .blender.gpu_context import exit_process
+
+        exit_process(code)
+    raise SystemExit(code)

@@ -13,6 +13,8 @@ for any other reason, the steps already done are undone before the error propaga
 
 from __future__ import annotations
 
+import atexit
+
 from .. import DependencyError, dependency_message, dependency_problems
 
 _PROBLEMS = dependency_problems()
@@ -20,6 +22,14 @@ if not _PROBLEMS:
     import bpy
 
     from . import draw, operators, panels, properties
+
+
+_STATE = {"registered": False, "exit_hook": False}
+
+
+def _unregister_at_exit() -> None:
+    if _STATE["registered"]:
+        unregister()
 
 
 def register() -> None:
@@ -34,6 +44,13 @@ def register() -> None:
             bpy.utils.register_class(cls)
             undo.append(lambda cls=cls: bpy.utils.unregister_class(cls))
         draw.register()
+        _STATE["registered"] = True
+        # The bpy module (no Blender binary) never unregisters add-ons itself, and bpy 4.5
+        # hangs for good in its exit handler while property groups are still registered;
+        # atexit runs this before that handler, which import bpy registered earlier.
+        if not bpy.app.binary_path and not _STATE["exit_hook"]:
+            atexit.register(_unregister_at_exit)
+            _STATE["exit_hook"] = True
     except BaseException:
         for step in reversed(undo):
             try:
@@ -44,8 +61,9 @@ def register() -> None:
 
 
 def unregister() -> None:
-    if _PROBLEMS:
-        return  # register() refused: nothing was registered
+    if _PROBLEMS or not _STATE["registered"]:
+        return  # register() refused or never ran: nothing is registered
+    _STATE["registered"] = False
     draw.unregister()
     for cls in reversed(operators.CLASSES + panels.CLASSES):
         bpy.utils.unregister_class(cls)

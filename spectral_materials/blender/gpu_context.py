@@ -15,6 +15,7 @@ import os
 import sys
 import tempfile
 from collections.abc import Iterator
+from typing import NoReturn
 
 import bpy
 
@@ -79,6 +80,23 @@ def _native_stderr_captured(captured: list[str]) -> Iterator[None]:
     others = [line for line in captured if not line.startswith(_EGL_PROBING)]
     if others:
         print("\n".join(others), file=sys.stderr)
+
+
+def exit_process(code: int | None) -> NoReturn:
+    """End a process that used Blender: flush, then leave without Blender's exit handler.
+
+    With bpy 5.3 on Vulkan (Mesa lavapipe), a process that rendered with EEVEE and drew
+    offscreen crashes now and then in that handler after its work is done (exit 134 or
+    139; docs/vulkan.md), which a caller would take for a failure. The results are written
+    and closed when a script calls this, so nothing is lost by skipping it. A process that
+    never imported ``bpy`` exits normally.
+    """
+    code = 0 if code is None else int(code)
+    if "bpy" not in sys.modules:
+        sys.exit(code)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
 
 
 def ensure_gpu() -> None:

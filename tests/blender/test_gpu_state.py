@@ -134,7 +134,8 @@ def test_initialising_the_gpu_prints_nothing_a_user_cannot_act_on():
 
     code = ("import bpy\nfrom spectral_materials import blender as addon\naddon.register()\n"
             "from spectral_materials.blender import gpu_context\ngpu_context.ensure_gpu()\n"
-            "import gpu\ngpu.types.GPUOffScreen(4, 4).free()\nprint('drawn')\n")
+            "import gpu\ngpu.types.GPUOffScreen(4, 4).free()\nprint('drawn')\n"
+            "gpu_context.exit_process(0)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=600, cwd=Path(__file__).resolve().parents[2], check=False)
     assert done.returncode == 0, done.stderr

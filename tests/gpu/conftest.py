@@ -17,9 +17,19 @@ from gpu_helpers import build_model  # noqa: E402
 @pytest.fixture(scope="session", autouse=True)
 def gpu_ready():
     """Initialise Blender's ``gpu`` module once (an EEVEE render the first time)."""
+    import os
+
+    import gpu
+
     from spectral_materials.blender.gpu_context import ensure_gpu
 
     ensure_gpu()
+    # A leg that asks for a backend must get it: without a driver, Blender falls back from
+    # Vulkan to OpenGL with only a log line, and the leg would test the wrong one.
+    wanted = os.environ.get("SPECTRAL_GPU_BACKEND")
+    if wanted:
+        assert gpu.platform.backend_type_get() == wanted, (
+            f"asked for {wanted}, Blender drew with {gpu.platform.backend_type_get()}")
 
 
 @pytest.fixture(scope="session")
