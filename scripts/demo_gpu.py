@@ -115,7 +115,8 @@ def report_lines(scene_stats: dict, spheres: dict, frame: dict | None,
               f"{worst:.5f}.", ""]
     if frame:
         lines += [f"Frame time of this view at {frame['size'][0]}×{frame['size'][1]} "
-                  f"({frame['renderer']}): {frame['ms']:.1f} ms/frame spectral, "
+                  f"({frame['renderer']}, {frame['backend']}, Blender {frame['blender']}): "
+                  f"{frame['ms']:.1f} ms/frame spectral, "
                   f"{frame['baseline_ms']:.1f} ms/frame for an RGB Blinn–Phong shader on the "
                   f"same meshes, ratio {frame['ratio']:.2f}. See docs/bench_draw.md for the "
                   "curves against packs and lights.", ""]
@@ -168,4 +169,5 @@ def frame_time(scene, width: int = 1280, height: int = 720, frames: int = 3,
     ms = float(np.median([s for s, _ in samples]))
     base = float(np.median([b for _, b in samples]))
     return {"size": [width, height], "ms": ms, "baseline_ms": base, "ratio": ms / base,
-            "renderer": gpu.platform.renderer_get(), "frames": frames, "repeats": repeats}
+            "renderer": gpu.platform.renderer_get(), "backend": gpu.platform.backend_type_get(),
+            "blender": bpy.app.version_string, "frames": frames, "repeats": repeats}
