@@ -21,6 +21,12 @@ leg() {
   bash scripts/setup_env.sh "$name" || status=$?
   if [ "$status" -eq 0 ]; then
     ".venvs/$name/bin/python" -m pytest -q "$@" || status=$?
+    if [ "$status" -ne 0 ] && [ "${RERUN_FAILURES:-0}" = 1 ]; then
+      # Only the failures, once: see the Vulkan leg below.
+      echo "leg $name: rerunning the failures once" >&2
+      status=0
+      ".venvs/$name/bin/python" -m pytest -q --last-failed "$@" || status=$?
+    fi
   fi
   local what="$*"
   echo "leg $name ${SPECTRAL_GPU_BACKEND:-} (bpy $(".venvs/$name/bin/python" -c 'import importlib.metadata as m; print(m.version("bpy"))' 2>/dev/null || echo '?')): ${what:-full suite}:" \
@@ -39,7 +45,11 @@ done
 # Vulkan: the bpy and GPU tests again on the newest Blender, through Mesa's lavapipe.
 lavapipe="$(compgen -G '/usr/share/vulkan/icd.d/lvp_icd.*.json' | head -n 1 || true)"
 if [ -n "$lavapipe" ]; then
-  VK_ICD_FILENAMES="$lavapipe" SPECTRAL_GPU_BACKEND=VULKAN leg 5.3 tests/blender tests/gpu "$@"
+  # Blender 5.3 on lavapipe now and then aborts a fresh process that renders with EEVEE
+  # (glibc "corrupted size vs. prev_size"; 1 of 235 tests in one clean run, 0 of 8 repeats
+  # of that test: docs/vulkan.md), so this leg reruns its failures once and says so.
+  VK_ICD_FILENAMES="$lavapipe" SPECTRAL_GPU_BACKEND=VULKAN RERUN_FAILURES=1 \
+    leg 5.3 tests/blender tests/gpu "$@"
 else
   echo "leg 5.3 on Vulkan: FAILED (no lavapipe ICD: apt-get install mesa-vulkan-drivers)"
   failed+=("5.3-vulkan")
