@@ -79,7 +79,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..sample_limits import MAX_SAMPLE, WAVELENGTH_LIMITS_NM
+from ..sample_limits import MAX_SAMPLE, WAVELENGTH_LIMITS_NM, extreme_mask
 from . import exr as _exr
 from ._files import atomic_path
 
@@ -400,7 +400,7 @@ def write_spectral_exr(
         raise ValueError(f"{path}: refusing to write {bad} non-finite samples (after "
                          "conversion to float32)")
     if not allow_invalid:  # all finite here: only the magnitude is left to check
-        extreme = int(np.count_nonzero((stored > MAX_SAMPLE) | (stored < -MAX_SAMPLE)))
+        extreme = int(np.count_nonzero(extreme_mask(stored)))
         if extreme:
             raise ValueError(f"{path}: refusing to write {extreme} samples beyond "
                              f"±{MAX_SAMPLE:g} (the reader refuses them)")
@@ -541,7 +541,7 @@ def _scan(values: np.ndarray, clamp: bool) -> dict:
         nan, inf = np.isnan(chunk), np.isinf(chunk)
         with np.errstate(invalid="ignore"):
             neg = chunk < 0
-            huge = ((chunk > MAX_SAMPLE) | (chunk < -MAX_SAMPLE)) & ~inf
+        huge = extreme_mask(chunk)
         counts["nan"] += int(nan.sum())
         counts["inf"] += int(inf.sum())
         counts["negative"] += int(neg.sum())
