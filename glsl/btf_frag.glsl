@@ -1,7 +1,7 @@
 /* Reflectance-field BTF (Meseth, Müller, Klein 2003, §5.1): per light, the fitted
  * luminance RF_v'(x, l) of the three measured views around the local view direction,
  * blended with barycentric weights, times the texel's spectral albedo under that
- * light. Mirrors spectral_materials/core/btf_render.py DrawableBTF.shade_xyz.
+ * light. Mirrors spectral_materials/core/btf/render.py DrawableBTF.shade_xyz.
  * SM_BTF_KIND 0: RFP (biquadratic in l.x, l.y); 1: RFNL (ρd + Σ a_j max(t̂_j·l, 0)^n_j,
  * unit t̂ so that nothing overflows). Parameters are fetched unfiltered (nearest texel,
  * repeat). SM_OUTPUT 0 writes XYZ, 1 display sRGB, 2 the world position, 3 the

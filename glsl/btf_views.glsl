@@ -1,5 +1,5 @@
 /* The three measured views around a local view direction and their barycentric
- * weights. Mirrors spectral_materials/core/btf.py HemisphereTriangulation.weights:
+ * weights. Mirrors spectral_materials/core/btf/container.py HemisphereTriangulation.weights:
  * the azimuthal-equidistant image of v picks a cell of a grid × grid table (cell_tex:
  * first entry and count of its candidate triangles in candidate_tex, entry i at
  * (i % SM_BTF_LIST_WIDTH, i / SM_BTF_LIST_WIDTH)); per triangle, triangle_tex

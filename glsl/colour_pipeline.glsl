@@ -1,6 +1,6 @@
 /* Display pipeline of the factor-pack paper (§3.1): XYZ → Bradford adaptation from
  * the scene white to D65 → linear sRGB → sigmoid tone map → sRGB encoding.
- * Mirrors spectral_materials/core/colour_pipeline.py. The two matrices come from
+ * Mirrors spectral_materials/core/colour/pipeline.py. The two matrices come from
  * colour-science through the parameter block (SmParams): adaptation (Bradford, scene
  * white → D65) and xyz_to_rgb (XYZ → linear sRGB); display.x is the exposure and
  * display.y the tone map's white. */

@@ -1,5 +1,5 @@
 /* Constants and safe vector helpers shared by every stage.
- * Mirrors spectral_materials/core/shading.py. */
+ * Mirrors spectral_materials/core/brdf/shading.py. */
 
 #define SM_PI 3.14159265358979
 #define SM_TWO_PI 6.28318530717959

@@ -1,8 +1,8 @@
 /* Factor-pack reconstruction: per pack of 4 rank-one terms, the product over the
  * angular axes of each factor interpolated at the pixel's coordinates.
- * Mirrors FactoredBRDF.coefficients (spectral_materials/core/factored.py).
+ * Mirrors FactoredBRDF.coefficients (spectral_materials/core/brdf/factored.py).
  *
- * factor_tex is the material's factor image (blender/storage.py): texel (x, k·G + g)
+ * factor_tex is the material's factor image (blender/brdf/storage.py): texel (x, k·G + g)
  * holds terms 4g … 4g+3 of axis k at sample x, with G = sm.misc.y texel rows per axis.
  * Texels are read with texelFetch and interpolated here, exactly as the Python
  * lookup does (a hardware filter would round its weights to 8 bits). */

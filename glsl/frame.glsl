@@ -1,4 +1,4 @@
-/* The per-pixel shading frame (t, b, n). Mirrors core/shading.py shading_frame.
+/* The per-pixel shading frame (t, b, n). Mirrors core/brdf/shading.py shading_frame.
  * The tangent is made orthogonal to n (Gram–Schmidt). Where it is missing, zero or
  * parallel to n, the generated field t = normalize(ŷ × n) is used, and x̂ where
  * that is undefined (n = ±ŷ): the sphere protocol's tangent field. */

@@ -1,5 +1,5 @@
 /* BRDF parameterisations: local (wi, wo) → grid coordinates.
- * Mirrors Parameterization.forward in spectral_materials/core/params.py.
+ * Mirrors Parameterization.forward in spectral_materials/core/brdf/params.py.
  * SM_PARAM selects one: 0 io, 1 io_iso, 2 hd, 3 hd_iso, 4 gs, 5 ea.
  * Unused coordinates are 0. */
 

@@ -1,5 +1,5 @@
 /* The parameter block (uniform buffer `sm`), std140. Filled by
- * spectral_materials/blender/gpu_material.py params_block(), which must match. */
+ * spectral_materials/blender/brdf/gpu_material.py params_block(), which must match. */
 
 struct SmParams {
   vec4 axis_lo;          /* per angular axis: lower end */

@@ -1,6 +1,6 @@
 /* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
  * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
- * spectral_materials/core/albedo.py sample_layers) so that the Python mirror matches.
+ * spectral_materials/core/prt/albedo.py sample_layers) so that the Python mirror matches.
  * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT 0 writes XYZ,
  * 1 display sRGB, 2 the world position, 5 the UV, 6 the primitive index. */
 

@@ -4,7 +4,7 @@
  * out row by row sm.sizes.x wide; L̃ from environment_tex, one row per SH coefficient
  * and SM_PRT_VEC4 texels of spectral coefficients per row (turned into the object's
  * frame and divided by the world frame's white Y on the CPU). Mirrors
- * spectral_materials/core/prt.py irradiance(). */
+ * spectral_materials/core/prt/transfer.py irradiance(). */
 
 void main()
 {

@@ -1,5 +1,5 @@
 /* The spectral side: reflected XYZ from the pack products and one light's
- * light × CMF coefficients. Mirrors FactoredBRDF.xyz and core/shading.py.
+ * light × CMF coefficients. Mirrors FactoredBRDF.xyz and core/brdf/shading.py.
  *
  * SM_PRECONTRACT 0 (the factor-pack paper, eq. 9): the reflectance coefficients
  *   R̃_j = Σ_packs S_pack[j] · product are accumulated, then XYZ = Σ_j R̃_j Ĩ_j,

@@ -1,7 +1,7 @@
 """BTF benchmark: the BTF paper's Table 1 on generated materials, held-out images,
 GPU memory, and frame time of the reflectance-field shaders.
 
-For each procedural material (corduroy, knit, stones; ``core/btf_generate.py``, so the
+For each procedural material (corduroy, knit, stones; ``core/btf/generate.py``, so the
 truth is known), a spectral BTF of T × T texels over the UBO 81 × 81 directions and 16
 bands is fitted four ways: a per-texel Lafortune model with 4 lobes (LAF), per-view
 biquadratic reflectance fields (RFP), per-view non-linear lobes (RFNL, 2 lobes, batched
@@ -39,14 +39,20 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from spectral_materials.core import (  # noqa: E402
-    btf,
-    btf_fit,
-    btf_generate,
-    btf_job,
-    colour_pipeline,
-    spectra,
+from spectral_materials.core.btf import (
+    container as btf,
 )
+from spectral_materials.core.btf import (
+    fit as btf_fit,
+)
+from spectral_materials.core.btf import (
+    generate as btf_generate,
+)
+from spectral_materials.core.btf import (
+    job as btf_job,
+)
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 MATERIALS = ("corduroy", "knit", "stones")
 METHODS = ("LAF", "RFP", "RFNL", "CP")
@@ -197,10 +203,10 @@ def frame_times(frames: int, reps: int) -> list[dict]:
     import bench_draw
     import bpy  # noqa: F401
 
-    from spectral_materials.blender import btf_gpu
-    from spectral_materials.blender.gpu_context import ensure_gpu
-    from spectral_materials.blender.gpu_material import DisplaySettings
-    from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.brdf.gpu_material import DisplaySettings
+    from spectral_materials.blender.btf import drawer as btf_gpu
+    from spectral_materials.blender.gpu.context import ensure_gpu
+    from spectral_materials.blender.gpu.offscreen import Target
 
     ensure_gpu()
     arrays = bench_draw.sphere_arrays()

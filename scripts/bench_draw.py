@@ -39,18 +39,21 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import bpy  # noqa: E402
+import bpy
 from bench_common import gpu_machine  # noqa: E402  (scripts/, next to this file)
 
-from spectral_materials.blender import mesh_batches, shaders  # noqa: E402
-from spectral_materials.blender.draw import set_matrix  # noqa: E402
-from spectral_materials.blender.gpu_context import ensure_gpu  # noqa: E402
-from spectral_materials.blender.gpu_material import DisplaySettings, GPUMaterial  # noqa: E402
-from spectral_materials.blender.offscreen import Target  # noqa: E402
-from spectral_materials.core import colour_pipeline, prefilter, spectra  # noqa: E402
-from spectral_materials.core.factored import FactoredBRDF  # noqa: E402
-from spectral_materials.core.lights import SpectralLight  # noqa: E402
-from spectral_materials.core.shading import light_texels, sphere_pixels  # noqa: E402
+from spectral_materials.blender.brdf.gpu_material import DisplaySettings, GPUMaterial
+from spectral_materials.blender.gpu import batches as mesh_batches
+from spectral_materials.blender.gpu import shaders
+from spectral_materials.blender.gpu.context import ensure_gpu
+from spectral_materials.blender.gpu.offscreen import Target
+from spectral_materials.blender.viewport.draw import set_matrix
+from spectral_materials.core.brdf import prefilter
+from spectral_materials.core.brdf.factored import FactoredBRDF
+from spectral_materials.core.brdf.shading import light_texels, sphere_pixels
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.lights import SpectralLight
 
 PACKS = [1, 2, 4, 8, 16, 22, 32, 48]
 LIGHTS = [1, 2, 4, 8]

@@ -45,31 +45,34 @@ if "--shader-cache" not in sys.argv:
     os.environ["MESA_SHADER_CACHE_DISABLE"] = "true"
     os.environ["__GL_SHADER_DISK_CACHE"] = "0"
 
-import argparse  # noqa: E402
-import ctypes  # noqa: E402
-import datetime  # noqa: E402
-import json  # noqa: E402
-import math  # noqa: E402
-import re  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from contextlib import contextmanager  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import ctypes
+import datetime
+import json
+import math
+import re
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import bpy  # noqa: E402
+import bpy
 from bench_common import gpu_machine  # noqa: E402  (scripts/, next to this file)
 
-from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import compat, draw, eevee, storage  # noqa: E402
-from spectral_materials.blender.gpu_context import ensure_gpu  # noqa: E402
-from spectral_materials.core import spectra  # noqa: E402
-from spectral_materials.core.factored import FactoredBRDF  # noqa: E402
-from spectral_materials.core.formats.exr import read_exr  # noqa: E402
+from spectral_materials import blender as addon
+from spectral_materials.blender import compat
+from spectral_materials.blender.brdf import storage
+from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.blender.gpu.context import ensure_gpu
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.brdf.factored import FactoredBRDF
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.formats.exr import read_exr
 
 PACKS = [1, 2, 4, 8, 16, 22, 32, 48]
 QUICK_PACKS = [1, 4, 16]

@@ -27,9 +27,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from spectral_materials.core import FactoredBRDF, cp, metrics, models, spectra  # noqa: E402
-from spectral_materials.core.colour_pipeline import white_xyz, xyz_to_display  # noqa: E402
-from spectral_materials.core.factor import factor_brdf_series, prepare_table  # noqa: E402
+from spectral_materials.core import FactoredBRDF
+from spectral_materials.core.brdf import metrics, models
+from spectral_materials.core.brdf.factor import factor_brdf_series, prepare_table
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.pipeline import white_xyz, xyz_to_display
+from spectral_materials.core.decomposition import cp
 
 PACKS = [1, 2, 4, 8, 16, 22, 32, 48]
 ILLUMINANTS = ("D65", "FL2")

@@ -33,11 +33,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import colour  # noqa: E402
+import colour
 
-from spectral_materials.core import colour_pipeline, metrics, models, spectra  # noqa: E402
-from spectral_materials.core.factor import factor_brdf_series  # noqa: E402
-from spectral_materials.core.formats import merl  # noqa: E402
+from spectral_materials.core.brdf import metrics, models
+from spectral_materials.core.brdf.factor import factor_brdf_series
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.formats import merl
 
 PACKS = [1, 2, 4, 8, 16]
 WAVELENGTHS = np.arange(400.0, 701.0, 5.0)

@@ -48,16 +48,18 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import bpy  # noqa: E402
+import bpy
 from bench_common import gpu_machine  # noqa: E402  (scripts/, next to this file)
 
-from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import draw, prt, prt_gpu  # noqa: E402
-from spectral_materials.blender.gpu_context import ensure_gpu  # noqa: E402
-from spectral_materials.blender.offscreen import Target  # noqa: E402
-from spectral_materials.core import colour_pipeline  # noqa: E402
-from spectral_materials.core import environment as core_environment  # noqa: E402
-from spectral_materials.core import prt as core_prt  # noqa: E402
+from spectral_materials import blender as addon
+from spectral_materials.blender.gpu.context import ensure_gpu
+from spectral_materials.blender.gpu.offscreen import Target
+from spectral_materials.blender.prt import drawer as prt_gpu
+from spectral_materials.blender.prt import scene as prt
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.prt import environment as core_environment
+from spectral_materials.core.prt import transfer as core_prt
 
 ILLUMINANTS = ("FL4", "D65")
 #: The add-on's default window (properties.SPECTRAL_PG_environment.window), first.

@@ -44,11 +44,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import bpy  # noqa: E402
+import bpy
 
-from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import prt  # noqa: E402
-from spectral_materials.core import colour_pipeline, spectra  # noqa: E402
+from spectral_materials import blender as addon
+from spectral_materials.blender.prt import scene as prt
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 PATCH = 13
 REFERENCE_RAYS = 4096

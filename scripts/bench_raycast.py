@@ -41,10 +41,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import bpy  # noqa: E402
+import bpy
 
-from spectral_materials.blender import bake  # noqa: E402
-from spectral_materials.core import raycast  # noqa: E402
+from spectral_materials.blender.prt import bake
+from spectral_materials.core.prt import raycast
 
 RAYS = 256
 #: (label, kind, subdivision levels); the last one only without --quick.

@@ -24,9 +24,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tests" / "core"))
 
-import bombs_archives  # noqa: E402
-import bombs_binary  # noqa: E402
-from peak_memory import MB, bound_bytes, peak_run  # noqa: E402
+import bombs_archives
+import bombs_binary
+from peak_memory import MB, bound_bytes, peak_run
 
 
 def commit_of(tree: Path) -> str:

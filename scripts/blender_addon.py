@@ -14,8 +14,8 @@ def addon():
     import bpy
 
     if hasattr(bpy.types, "SPECTRAL_OT_factor_scene"):
-        module = bpy.types.SPECTRAL_OT_factor_scene.__module__     # …blender.operators
-        return importlib.import_module(module.rsplit(".", 1)[0])
+        module = bpy.types.SPECTRAL_OT_factor_scene.__module__     # …blender.<package>.operators
+        return importlib.import_module(module[: module.rindex(".blender.") + len(".blender")])
     sys.path.insert(0, str(REPO))
     from spectral_materials import blender
 

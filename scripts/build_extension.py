@@ -48,7 +48,7 @@ INIT_TEMPLATE = ROOT / "scripts" / "extension_init.py"
 STAGE = ROOT / "build" / "extension"
 WHEEL_CACHE = ROOT / "build" / "wheels"
 DEFAULT_OUT = ROOT / "dist"
-# Staged next to the root __init__.py, as in the checkout (glsl/ is read by blender/draw.py).
+# Staged next to the root __init__.py, as in the checkout (glsl/ is read by blender/gpu/shaders.py).
 STAGED_DIRS = ("spectral_materials", "glsl")
 IGNORED = shutil.ignore_patterns("__pycache__", "*.py[co]", ".*", "*~", "*.orig", "*.rej")
 # Files the installed add-on cannot work without (checked in every zip).

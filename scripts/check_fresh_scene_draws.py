@@ -5,7 +5,7 @@ Each trial loads the factory start-up file (which frees every cached shader vari
 ``draw.reset``), builds a PRT plane facing the camera, bakes it and draws it offscreen;
 a trial is blank when no pixel is covered. ``--without-unbind`` makes
 ``gpu.shader.unbind`` do nothing, which restores the behaviour before
-``blender/gpu_state.py``: the context keeps the freed variant's address as "bound", and a
+``blender/gpu/state.py``: the context keeps the freed variant's address as "bound", and a
 new variant allocated there is never really bound. Prints ``blank N of TRIALS``; exits 1
 when any trial was blank.
 """
@@ -18,11 +18,12 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-import bpy  # noqa: E402
-import gpu  # noqa: E402
+import bpy
+import gpu
 
-from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import draw, prt  # noqa: E402
+from spectral_materials import blender as addon
+from spectral_materials.blender.prt import scene as prt
+from spectral_materials.blender.viewport import draw
 
 
 def fresh_plane_scene():
@@ -66,6 +67,6 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    from spectral_materials.blender.gpu_context import exit_process
+    from spectral_materials.blender.gpu.context import exit_process
 
     exit_process(main())

@@ -30,17 +30,20 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "scripts"))
 
-import bpy  # noqa: E402
-import demo_btf  # noqa: E402
+import bpy
+import demo_btf
 import demo_eevee  # noqa: E402  (scripts/, next to this file)
-import demo_gpu  # noqa: E402
-import demo_prt  # noqa: E402
-from demo_sizes import DemoSizes, sizes_for  # noqa: E402
+import demo_gpu
+import demo_prt
+from demo_sizes import DemoSizes, sizes_for
 
-from spectral_materials import blender as addon  # noqa: E402
-from spectral_materials.blender import eevee, jobs, sources, storage  # noqa: E402
-from spectral_materials.core import colour_pipeline, metrics, spectra  # noqa: E402
-from spectral_materials.core.progress import TerminalProgress  # noqa: E402
+from spectral_materials import blender as addon
+from spectral_materials.blender.brdf import jobs, sources, storage
+from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.core.brdf import metrics
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.progress import TerminalProgress
 
 # name: (model, scalar parameters, diffuse patch, specular constant, packs)
 MATERIALS = {
@@ -334,6 +337,6 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    from spectral_materials.blender.gpu_context import exit_process
+    from spectral_materials.blender.gpu.context import exit_process
 
     exit_process(main())

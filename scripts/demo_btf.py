@@ -1,7 +1,7 @@
 """The demo's BTF section (called by demo.py): generated corduroy on a cushion.
 
 A cushion (a smooth cylinder on its side, UV mapped) gets a corduroy BTF generated here
-(``core/btf_generate.py``: ridges with deep grooves, self-shadowing and masking,
+(``core/btf/generate.py``: ridges with deep grooves, self-shadowing and masking,
 spectral dyes), fitted as per-view reflectance fields (RFNL, 2 lobes) through the same
 function the Fit BTF operator calls, and drawn by the spectral draw handler under a
 fluorescent FL2 spot and a D65 sun. The section reports the fit's ε, the four-way error
@@ -20,10 +20,13 @@ from bench_btf import fit_all  # scripts/, beside this file
 from demo_prt import _png  # the demo's display PNG writer
 from demo_sizes import DemoSizes
 
-from spectral_materials.blender import btf as blender_btf
-from spectral_materials.blender import btf_storage, draw
-from spectral_materials.core import btf_fit, btf_generate, spectra
-from spectral_materials.core.shading import shading_frame, to_local
+from spectral_materials.blender.btf import fit as blender_btf
+from spectral_materials.blender.btf import storage as btf_storage
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.brdf.shading import shading_frame, to_local
+from spectral_materials.core.btf import fit as btf_fit
+from spectral_materials.core.btf import generate as btf_generate
+from spectral_materials.core.colour import spectra
 
 
 def build_scene(sizes: DemoSizes):

@@ -10,8 +10,11 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from spectral_materials.blender import compat, draw, eevee, scene_lights
-from spectral_materials.core import colour_pipeline
+from spectral_materials.blender import compat
+from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.blender.lights import scene_lights
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.colour import pipeline as colour_pipeline
 from spectral_materials.core.formats.exr import read_exr
 
 
@@ -149,8 +152,10 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
     tessellated sphere's silhouette pixels are left out)."""
     from scipy import ndimage
 
-    from spectral_materials.blender import offscreen, sources, storage
-    from spectral_materials.core import metrics, spectra
+    from spectral_materials.blender.brdf import sources, storage
+    from spectral_materials.blender.gpu import offscreen
+    from spectral_materials.core.brdf import metrics
+    from spectral_materials.core.colour import spectra
 
     rows = {}
     for name in materials:

@@ -9,8 +9,12 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from spectral_materials.blender import offscreen, scene_lights, scene_reference, sources, storage
-from spectral_materials.core import colour_pipeline, metrics, shading, spectra
+from spectral_materials.blender.brdf import scene_reference, sources, storage
+from spectral_materials.blender.gpu import offscreen
+from spectral_materials.blender.lights import scene_lights
+from spectral_materials.core.brdf import metrics, shading
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 INCIDENCES = (0.0, 30.0, 60.0, 80.0)
 ILLUMINANTS = ("D65", "A", "FL2", "FL11")
@@ -130,8 +134,8 @@ def frame_time(scene, width: int = 1280, height: int = 720, frames: int = 3,
     import bench_draw
     import gpu
 
-    from spectral_materials.blender import draw
-    from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.gpu.offscreen import Target
+    from spectral_materials.blender.viewport import draw
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     vp, view = draw.camera_view(scene.camera, width, height, depsgraph)

@@ -21,9 +21,15 @@ import bpy
 import numpy as np
 from demo_sizes import DemoSizes
 
-from spectral_materials.blender import draw, prt, prt_gpu, prt_images, scene_lights
-from spectral_materials.core import colour_pipeline, metamers, prt_reference, spectra
+from spectral_materials.blender.lights import scene_lights
+from spectral_materials.blender.prt import drawer as prt_gpu
+from spectral_materials.blender.prt import images as prt_images
+from spectral_materials.blender.prt import scene as prt
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.colour import metamers, spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline
 from spectral_materials.core.formats.spectral_exr import write_spectral_exr
+from spectral_materials.core.prt import reference as prt_reference
 
 WL = spectra.WAVELENGTHS_REFERENCE
 
@@ -143,7 +149,7 @@ def colorchecker_fl4(images: Path, sizes: DemoSizes) -> dict:
 
 
 def _render_rgb(scene) -> np.ndarray:
-    from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.gpu.offscreen import Target
 
     width, height = scene.render.resolution_x, scene.render.resolution_y
     depsgraph = bpy.context.evaluated_depsgraph_get()

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace, inside_blender: bool) -> int:
         addon = blender_addon.addon()
     from importlib import import_module
 
-    jobs = import_module(addon.__name__ + ".jobs")
+    jobs = import_module(addon.__name__ + ".brdf.jobs")
     core = import_module(addon.__name__.rsplit(".", 1)[0] + ".core")
     progress_module = import_module(core.__name__ + ".progress")
 

@@ -27,8 +27,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from spectral_materials.core import raster_plots, spectra  # noqa: E402
-from spectral_materials.core.colour_pipeline import srgb_encode  # noqa: E402
+from spectral_materials.core import raster_plots
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.pipeline import srgb_encode
 
 # docs/bench_factor.json, case b (Ashikhmin–Shirley), joint, pairs_D65, as of writing.
 FALLBACK = {

@@ -50,7 +50,7 @@ def run(args: argparse.Namespace, inside_blender: bool) -> int:
         bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
     else:
         addon = blender_addon.addon()
-    render_output = importlib.import_module(addon.__name__ + ".render_output")
+    render_output = importlib.import_module(addon.__name__ + ".viewport.render_output")
     scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
     if scene is None:
         print(f"render_spectral: error: no scene named {args.scene!r}", file=sys.stderr)
@@ -88,6 +88,6 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    from spectral_materials.blender.gpu_context import exit_process
+    from spectral_materials.blender.gpu.context import exit_process
 
     exit_process(main())

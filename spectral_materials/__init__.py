@@ -108,3 +108,8 @@ def check_dependencies() -> None:
     """Raise one :class:`DependencyError` naming every dependency that is missing or too old."""
     if problems := dependency_problems():
         raise DependencyError(dependency_message(problems))
+
+# Old import paths (before the capability packages) keep working for one release.
+from . import _moved  # noqa: E402 - after the version check helpers, which it does not need
+
+_moved.install(__name__)

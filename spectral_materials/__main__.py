@@ -7,7 +7,7 @@ from .cli import main
 if __name__ == "__main__":
     code = main()
     if "bpy" in sys.modules:         # it used Blender: see gpu_context.exit_process
-        from .blender.gpu_context import exit_process
+        from .blender.gpu.context import exit_process
 
         exit_process(code)
     raise SystemExit(code)

@@ -10,7 +10,7 @@ Commands
     the grid, no factorisation), the floor no pack count can go below.
 
 ``render-sphere``
-    Draw a saved :class:`~spectral_materials.core.factored.FactoredBRDF` on the
+    Draw a saved :class:`~spectral_materials.core.brdf.factored.FactoredBRDF` on the
     protocol sphere (shared/PROTOCOL.md) through the GPU path (Blender's ``gpu``
     module, headless through EGL) and write linear CIE XYZ (channels X, Y, Z,
     float32), normalised as the protocol says, to an OpenEXR file; ``--png``
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .core.factored import json_default
+from .core.brdf.factored import json_default
 
 PROG = "python -m spectral_materials"
 EXIT_ERROR = 2
@@ -150,9 +150,9 @@ class _SigintHandler:
 def parse_spectrum(text: str):
     """``patch:N`` (ColorChecker, 1-based, or a patch name), a number, or ``csv:PATH``.
 
-    Returns a :data:`~spectral_materials.core.spectra.SpectrumLike`.
+    Returns a :data:`~spectral_materials.core.colour.spectra.SpectrumLike`.
     """
-    from .core import spectra
+    from .core.colour import spectra
 
     text = str(text).strip()
     kind, sep, rest = text.partition(":")
@@ -179,11 +179,11 @@ def parse_spectrum(text: str):
 
 
 def read_spectrum_csv(path: str) -> tuple[np.ndarray, np.ndarray]:
-    """The add-on's reader (:func:`~spectral_materials.core.spectrum_library.read_spectrum_csv`:
+    """The add-on's reader (:func:`~.core.colour.spectrum_library.read_spectrum_csv`:
     two columns ``wavelength_nm,value``, headers, comments, decimal commas, UTF-16,
     reversed files, size and value limits), its errors as :class:`UsageError`."""
-    from .core.spectrum_library import SpectrumFileError
-    from .core.spectrum_library import read_spectrum_csv as read
+    from .core.colour.spectrum_library import SpectrumFileError
+    from .core.colour.spectrum_library import read_spectrum_csv as read
 
     try:
         return read(path)
@@ -292,7 +292,7 @@ def _model_kwargs(cls, args) -> dict:
 
 def load_input(args, progress: Progress):
     """The BRDF callable named by MODEL_OR_FILE → ``(brdf, description dict, file or None)``."""
-    from .core import models
+    from .core.brdf import models
     from .core.formats.tabulated import read_tabulated
 
     source = args.input
@@ -334,7 +334,7 @@ def _model_xyz(model, wi: np.ndarray, wo: np.ndarray, illuminant: str) -> np.nda
 
 
 def _stats(reference: dict, xyz_fn, wi, wo, illuminants) -> dict:
-    from .core import metrics
+    from .core.brdf import metrics
 
     return {illum: {k: v for k, v in metrics.delta_e94_stats(
         reference[illum], xyz_fn(wi, wo, illum), illum).items() if k != "count"}
@@ -390,7 +390,7 @@ def _check_output_path(option: str, path: Path | None) -> None:
 
 def _resolve_parameterization(args, brdf, table_file, wavelengths):
     """(name, isotropic, resolution) for prepare_table, with the file's own as defaults."""
-    from .core.factor import resolve_parameterization
+    from .core.brdf.factor import resolve_parameterization
 
     if args.parameterization is None and table_file is not None:
         param = table_file.grid.parameterization
@@ -417,8 +417,9 @@ def _resolve_parameterization(args, brdf, table_file, wavelengths):
 
 
 def cmd_factor(args, progress: Progress) -> int:
-    from .core import metrics, spectra
-    from .core.factor import factor_brdf_series, prepare_table
+    from .core.brdf import metrics
+    from .core.brdf.factor import factor_brdf_series, prepare_table
+    from .core.colour import spectra
 
     out_path = Path(args.out) if args.out else None
     json_path = Path(args.json) if args.json else None
@@ -606,8 +607,9 @@ def _add_factor_parser(sub) -> None:
 
 
 def cmd_render_sphere(args, progress: Progress) -> int:
-    from .core import colour_pipeline, spectra
-    from .core.factored import FactoredBRDF
+    from .core.brdf.factored import FactoredBRDF
+    from .core.colour import pipeline as colour_pipeline
+    from .core.colour import spectra
     from .core.formats.exr import write_exr
 
     if args.illuminant not in spectra.ILLUMINANT_NAMES:
@@ -624,12 +626,12 @@ def cmd_render_sphere(args, progress: Progress) -> int:
     progress.info("initialising the GPU (the first headless draw compiles shaders)")
     import bpy
 
-    from .blender.gpu_material import DisplaySettings
-    from .blender.offscreen import render_sphere
+    from .blender.brdf.gpu_material import DisplaySettings
+    from .blender.gpu.offscreen import render_sphere
 
     if args.engine == "eevee":
         from . import blender as addon
-        from .blender import eevee
+        from .blender.eevee import apply as eevee
 
         if not hasattr(bpy.types.Material, "spectral"):
             addon.register()      # the render stores the factors on a scratch material

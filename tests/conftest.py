@@ -17,8 +17,8 @@ def pytest_sessionfinish(session, exitstatus) -> None:
 def pytest_unconfigure(config) -> None:
     """After the summary, leave a session that used Blender without Blender's exit handler,
     which sometimes crashes on 5.3 with Vulkan
-    (``spectral_materials.blender.gpu_context.exit_process``)."""
+    (``spectral_materials.blender.gpu.context.exit_process``)."""
     if "bpy" in sys.modules and "exit" in _STATUS:
-        from spectral_materials.blender.gpu_context import exit_process
+        from spectral_materials.blender.gpu.context import exit_process
 
         exit_process(_STATUS["exit"])

@@ -21,7 +21,8 @@ _PROBLEMS = dependency_problems()
 if not _PROBLEMS:
     import bpy
 
-    from . import draw, operators, panels, properties
+    from .ui import operators, panels, properties
+    from .viewport import draw
 
 
 _STATE = {"registered": False, "exit_hook": False}

@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import colour_pipeline, spectra
+from .colour import pipeline as colour_pipeline
+from .colour import spectra
 
 LIGHT_CODES = {"SUN": 0, "POINT": 1, "SPOT": 2, "AREA": 3}
 #: Closer than this (squared distance) a point light sits on the shaded point and

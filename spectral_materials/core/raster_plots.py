@@ -38,7 +38,7 @@ import colour
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import spectra
+from .colour import spectra
 
 #: Colours, linear RGB.
 BACKGROUND = (0.010, 0.010, 0.012)

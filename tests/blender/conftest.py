@@ -6,7 +6,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials import blender as addon  # noqa: E402
+from spectral_materials import blender as addon
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -215,15 +215,15 @@ def main(zip_path: str, result_path: str) -> int:
         }
 
         result["stage"] = "draw"
-        blender_pkg = cls.__module__.rsplit(".", 1)[0]           # …spectral_materials.blender
-        result["glsl_dir"] = str(importlib.import_module(blender_pkg + ".shaders").GLSL_DIR)
+        blender_pkg = cls.__module__[: cls.__module__.rindex(".blender.") + len(".blender")]
+        result["glsl_dir"] = str(importlib.import_module(blender_pkg + ".gpu.shaders").GLSL_DIR)
         camera = bpy.data.objects.new("probe camera", bpy.data.cameras.new("probe camera"))
         camera.location = (0.0, 0.0, 4.0)
         bpy.context.scene.collection.objects.link(camera)
         bpy.context.scene.camera = camera
         mat.spectral.enabled = True
         start = time.perf_counter()
-        drawn = importlib.import_module(blender_pkg + ".render_output").write_scene_images(
+        drawn = importlib.import_module(blender_pkg + ".viewport.render_output").write_scene_images(
             bpy.context.scene, Path(result_path).with_name("probe_frame"), width=32, height=24)
         times["draw"] = time.perf_counter() - start
         result["draw_objects"] = drawn["objects"]

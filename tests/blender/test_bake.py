@@ -9,9 +9,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials.blender import bake  # noqa: E402
-from spectral_materials.core import raycast  # noqa: E402
-from spectral_materials.core.errors import Cancelled  # noqa: E402
+from spectral_materials.blender.prt import bake
+from spectral_materials.core.errors import Cancelled
+from spectral_materials.core.prt import raycast
 
 #: The bake's backends other than the baseline and the brute-force reference.
 FAST = ["embree", "numpy"]
@@ -90,7 +90,7 @@ def test_bad_input(clean_scene):
 def test_unoccluded_transfer_is_the_clamped_cosine_about_the_normal(clean_scene):
     """With the real SH basis: a convex object's transfer is max(n·ω, 0) projected,
     whose coefficients are known in closed form (core.sh.clamped_cosine_zonal)."""
-    from spectral_materials.core import sh
+    from spectral_materials.core.prt import sh
 
     bpy.ops.mesh.primitive_uv_sphere_add(segments=24, ring_count=12)
     sphere = bpy.context.active_object

@@ -9,11 +9,17 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from mathutils import Vector  # noqa: E402
+from mathutils import Vector
 
-from spectral_materials.blender import btf_gpu, btf_storage, draw, scene_lights  # noqa: E402
-from spectral_materials.core import btf, btf_render, colour_pipeline, spectra  # noqa: E402
-from spectral_materials.core.shading import shading_frame  # noqa: E402
+from spectral_materials.blender.btf import drawer as btf_gpu
+from spectral_materials.blender.btf import storage as btf_storage
+from spectral_materials.blender.lights import scene_lights
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.brdf.shading import shading_frame
+from spectral_materials.core.btf import container as btf
+from spectral_materials.core.btf import render as btf_render
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 WL = spectra.WAVELENGTHS_REFERENCE
 SIZE = (128, 96)

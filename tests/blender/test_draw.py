@@ -12,15 +12,15 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials.blender import (  # noqa: E402
-    draw,
-    mesh_batches,
-    scene_lights,
-    shaders,
-    storage,
-)
-from spectral_materials.core import colour_pipeline, factor, models, shading, spectra  # noqa: E402
-from spectral_materials.core.formats.exr import read_exr  # noqa: E402
+from spectral_materials.blender.brdf import storage
+from spectral_materials.blender.gpu import batches as mesh_batches
+from spectral_materials.blender.gpu import shaders
+from spectral_materials.blender.lights import scene_lights
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.brdf import factor, models, shading
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.formats.exr import read_exr
 
 REPO = Path(__file__).resolve().parents[2]
 WL = spectra.WAVELENGTHS_REFERENCE

@@ -12,19 +12,17 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_helpers import spectral_material  # noqa: E402
-from scipy import ndimage  # noqa: E402
+from blender_helpers import spectral_material
+from scipy import ndimage
 
-from spectral_materials.blender import compat, eevee, eevee_nodes, jobs, storage  # noqa: E402
-from spectral_materials.core import (  # noqa: E402
-    colour_pipeline,
-    factor,
-    models,
-    prefilter,
-    shading,
-    spectra,
-)
-from spectral_materials.core.formats.exr import read_exr  # noqa: E402
+from spectral_materials.blender import compat
+from spectral_materials.blender.brdf import jobs, storage
+from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.blender.eevee import nodes as eevee_nodes
+from spectral_materials.core.brdf import factor, models, prefilter, shading
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.formats.exr import read_exr
 
 REPO = Path(__file__).resolve().parents[2]
 WL = spectra.WAVELENGTHS_REFERENCE
@@ -175,7 +173,7 @@ def test_over_the_uniform_block_limit_is_refused_and_nothing_changes(clean_scene
 
 def _synthetic_hd(packs: int):
     """The benchmark's hd layout (90×45×90×45, 8 basis vectors) with random factors."""
-    from spectral_materials.core.factored import FactoredBRDF
+    from spectral_materials.core.brdf.factored import FactoredBRDF
 
     rng = np.random.default_rng(packs)
     resolution, terms = (90, 45, 90, 45), 4 * packs

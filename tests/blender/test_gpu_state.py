@@ -3,7 +3,7 @@ an earlier draw, objects recreated under an old name, and caches across file loa
 
 The demo's main job died on a clean machine when a plane facing the camera drew no pixel
 after earlier sections had run in the same process; leaving back-face culling with the
-winding flipped recreates exactly that (see ``blender/gpu_state.py``).
+winding flipped recreates exactly that (see ``blender/gpu/state.py``).
 """
 
 from __future__ import annotations
@@ -14,8 +14,16 @@ import pytest
 bpy = pytest.importorskip("bpy")
 gpu = pytest.importorskip("gpu")
 
-from spectral_materials.blender import draw, gpu_context, mesh_batches, storage  # noqa: E402
-from spectral_materials.core import factor, models, spectra  # noqa: E402
+from spectral_materials.blender.brdf import storage
+from spectral_materials.blender.gpu import (
+    batches as mesh_batches,
+)
+from spectral_materials.blender.gpu import (
+    context as gpu_context,
+)
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.brdf import factor, models
+from spectral_materials.core.colour import spectra
 
 WL = spectra.WAVELENGTHS_REFERENCE
 SIZE = (96, 64)
@@ -110,7 +118,10 @@ def test_an_object_recreated_under_an_old_name_draws_its_own_geometry(clean_scen
 
 
 def test_every_cache_is_emptied_by_a_file_load(clean_scene, matte_model, tmp_path):
-    from spectral_materials.blender import btf_gpu, prt, prt_gpu, shaders
+    from spectral_materials.blender.btf import drawer as btf_gpu
+    from spectral_materials.blender.gpu import shaders
+    from spectral_materials.blender.prt import drawer as prt_gpu
+    from spectral_materials.blender.prt import scene as prt
 
     _plane_facing_camera(matte_model)
     _render("XYZ")
@@ -133,7 +144,8 @@ def test_initialising_the_gpu_prints_nothing_a_user_cannot_act_on():
     from pathlib import Path
 
     code = ("import bpy\nfrom spectral_materials import blender as addon\naddon.register()\n"
-            "from spectral_materials.blender import gpu_context\ngpu_context.ensure_gpu()\n"
+            "from spectral_materials.blender.gpu import context as gpu_context\n"
+            "gpu_context.ensure_gpu()\n"
             "import gpu\ngpu.types.GPUOffScreen(4, 4).free()\nprint('drawn')\n"
             "gpu_context.exit_process(0)\n")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -11,7 +11,8 @@ import bpy
 import pytest
 from blender_helpers import spectral_material
 
-from spectral_materials.blender import plots, properties
+from spectral_materials.blender.lights import plots
+from spectral_materials.blender.ui import properties
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "factor_scene.py"
 
@@ -67,7 +68,7 @@ def test_every_property_has_a_tooltip():
 
 
 def test_operators_have_descriptions():
-    from spectral_materials.blender import operators
+    from spectral_materials.blender.ui import operators
 
     for cls in operators.CLASSES:
         assert cls.__doc__ and cls.bl_idname.startswith("spectral.")
@@ -87,7 +88,7 @@ def test_light_spd_plot(clean_scene):
 
 
 def test_light_spd_errors_name_the_light(clean_scene):
-    from spectral_materials.blender import sources
+    from spectral_materials.blender.brdf import sources
 
     light = bpy.data.lights["Light"]
     light.spectral.kind = "TEXT"
@@ -101,7 +102,7 @@ def test_light_spd_errors_name_the_light(clean_scene):
 
 
 def test_panel_staleness_check(clean_scene):
-    from spectral_materials.blender import panels
+    from spectral_materials.blender.ui import panels
 
     material = spectral_material()
     assert bpy.ops.spectral.factor_material() == {"FINISHED"}

@@ -7,7 +7,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials.core.formats import merl  # noqa: E402
+from spectral_materials.core.formats import merl
 
 
 def _lambert_rgb(wi, wo):

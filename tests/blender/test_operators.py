@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from blender_helpers import snapshot, spectral_material
 
-from spectral_materials.blender import jobs, scene, sources, storage
+from spectral_materials.blender.brdf import jobs, scene, sources, storage
+from spectral_materials.core.brdf.metrics import random_direction_pairs, reference_xyz
 from spectral_materials.core.errors import Cancelled
-from spectral_materials.core.metrics import random_direction_pairs, reference_xyz
 
 
 def _factor(**kwargs) -> set[str]:
@@ -46,7 +46,7 @@ def test_errors_are_measured_against_the_reference(clean_scene):
     model = storage.load_factored(material)
     inputs = sources.material_inputs(material)
     wi, wo = random_direction_pairs()
-    from spectral_materials.core.metrics import delta_e94_stats
+    from spectral_materials.core.brdf.metrics import delta_e94_stats
     stats = delta_e94_stats(reference_xyz(inputs.brdf(), wi, wo, "D65"),
                             model.xyz(wi, wo, "D65"), "D65")
     assert material.spectral.result.de94_mean == pytest.approx(stats["mean"], rel=1e-5)
@@ -197,7 +197,8 @@ def test_build_basis_factors_nothing(clean_scene):
 
 
 def test_factor_a_tabulated_data_file(clean_scene, tmp_path):
-    from spectral_materials.core import models, spectra
+    from spectral_materials.core.brdf import models
+    from spectral_materials.core.colour import spectra
     from spectral_materials.core.formats.tabulated import tabulate_to_file
 
     brdf = models.OrenNayar(albedo=spectra.colorchecker_spectrum(12), sigma=0.4)

@@ -10,7 +10,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials.blender import draw  # noqa: E402
+from spectral_materials.blender.viewport import draw
 
 DATA = pathlib.Path(__file__).resolve().parents[1] / "data" / "premove"
 

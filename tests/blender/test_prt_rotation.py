@@ -20,10 +20,21 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials.blender import draw, prt, prt_gpu, prt_images  # noqa: E402
-from spectral_materials.core import albedo as core_albedo  # noqa: E402
-from spectral_materials.core import colour_pipeline, sh, spectra  # noqa: E402
-from spectral_materials.core import prt as core_prt  # noqa: E402
+from spectral_materials.blender.prt import (
+    drawer as prt_gpu,
+)
+from spectral_materials.blender.prt import (
+    images as prt_images,
+)
+from spectral_materials.blender.prt import (
+    scene as prt,
+)
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import albedo as core_albedo
+from spectral_materials.core.prt import sh
+from spectral_materials.core.prt import transfer as core_prt
 
 WL = spectra.WAVELENGTHS_REFERENCE
 PATCH = 13
@@ -129,7 +140,7 @@ def test_turned_sphere_under_a_clear_sky_with_a_sun(clean_scene, transform):
 
 def _render_rgb(scene) -> np.ndarray:
     """The scene's PRT objects drawn as classical RGB PRT from the camera (XYZ output)."""
-    from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.gpu.offscreen import Target
 
     size = scene.render.resolution_x
     depsgraph = bpy.context.evaluated_depsgraph_get()

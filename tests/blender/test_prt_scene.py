@@ -8,10 +8,20 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from spectral_materials.blender import draw, prt, prt_gpu, prt_images  # noqa: E402
-from spectral_materials.core import albedo as core_albedo  # noqa: E402
-from spectral_materials.core import colour_pipeline, spectra  # noqa: E402
-from spectral_materials.core import prt as core_prt  # noqa: E402
+from spectral_materials.blender.prt import (
+    drawer as prt_gpu,
+)
+from spectral_materials.blender.prt import (
+    images as prt_images,
+)
+from spectral_materials.blender.prt import (
+    scene as prt,
+)
+from spectral_materials.blender.viewport import draw
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import albedo as core_albedo
+from spectral_materials.core.prt import transfer as core_prt
 
 WL = spectra.WAVELENGTHS_REFERENCE
 

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from blender_helpers import add_sphere, spectral_material
 
-from spectral_materials.blender import jobs, scene
-from spectral_materials.core import colour_pipeline, spectra
+from spectral_materials.blender.brdf import jobs, scene
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 
 def _analysis() -> dict:

@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 from blender_helpers import spectral_material
 
-from spectral_materials.blender import storage
-from spectral_materials.core import models, spectra
-from spectral_materials.core.factor import factor_brdf
-from spectral_materials.core.factored import FactoredBRDF
-from spectral_materials.core.metrics import random_direction_pairs
+from spectral_materials.blender.brdf import storage
+from spectral_materials.core.brdf import models
+from spectral_materials.core.brdf.factor import factor_brdf
+from spectral_materials.core.brdf.factored import FactoredBRDF
+from spectral_materials.core.brdf.metrics import random_direction_pairs
+from spectral_materials.core.colour import spectra
 
 
 def _random_model(terms: int, basis_size: int | None, seed: int = 0) -> FactoredBRDF:

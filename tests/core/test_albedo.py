@@ -1,4 +1,4 @@
-"""Spectral albedo textures (core/albedo.py): R̃ layers equal prt.albedo_weights per texel,
+"""Spectral albedo textures (core/prt/albedo.py): R̃ layers equal prt.albedo_weights per texel,
 a complete basis changes nothing, GLSL-style bilinear sampling, spectral EXR input, the
 Smits uplift of grey, the PRT basis, and refusals of bad input."""
 
@@ -7,7 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import albedo, prt, spectra
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import albedo
+from spectral_materials.core.prt import transfer as prt
 
 WL = spectra.WAVELENGTHS_REFERENCE
 

@@ -1,12 +1,13 @@
-"""Tests of spectral_materials.core.basis (Peercy's linear-model spectral basis)."""
+"""Tests of spectral_materials.core.colour.basis (Peercy's linear-model spectral basis)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from spectral_materials.core import colour_pipeline, spectra
-from spectral_materials.core.basis import (
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.basis import (
     LinearModelBasis,
     light_cmf_spectra,
     linear_model_basis,

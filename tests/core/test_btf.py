@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import btf, btf_render, spectra
+from spectral_materials.core.btf import container as btf
+from spectral_materials.core.btf import render as btf_render
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.lights import SpectralLight
 
 WL = spectra.WAVELENGTHS_REFERENCE

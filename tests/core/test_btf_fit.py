@@ -8,9 +8,9 @@ the analytic form is theirs.
 import numpy as np
 import pytest
 
-from spectral_materials.core import btf_fit as bf
-from spectral_materials.core import btf_lm
-from spectral_materials.core.btf import BTF, ring_directions
+from spectral_materials.core.btf import fit as bf
+from spectral_materials.core.btf import lm as btf_lm
+from spectral_materials.core.btf.container import BTF, ring_directions
 from spectral_materials.core.errors import Cancelled
 
 LIGHTS = ring_directions()                      # the 81 UBO directions

@@ -14,9 +14,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from spectral_materials.core import btf_generate as gen
-from spectral_materials.core import spectra
-from spectral_materials.core.btf import BTF, ring_directions
+from spectral_materials.core.btf import generate as gen
+from spectral_materials.core.btf.container import BTF, ring_directions
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.errors import Cancelled
 
 WL = np.array([420.0, 480.0, 550.0, 610.0, 680.0])

@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import btf, btf_generate, btf_job, colour_pipeline, spectra
+from spectral_materials.core.btf import container as btf
+from spectral_materials.core.btf import generate as btf_generate
+from spectral_materials.core.btf import job as btf_job
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.formats import ubo_btf
 
 

@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from spectral_materials import cli
-from spectral_materials.core import models, spectra
-from spectral_materials.core.factored import FactoredBRDF
+from spectral_materials.core.brdf import models
+from spectral_materials.core.brdf.factored import FactoredBRDF
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.formats.tabulated import tabulate_to_file
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.colour_pipeline (normalisation, CIELAB, ΔE94, display).
+"""Tests of spectral_materials.core.colour.pipeline (normalisation, CIELAB, ΔE94, display).
 
 Every display stage is checked against colour-science's own implementation.
 """
@@ -9,8 +9,8 @@ import colour
 import numpy as np
 import pytest
 
-from spectral_materials.core import spectra
-from spectral_materials.core.colour_pipeline import (
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.pipeline import (
     DISPLAY_WHITE_XYZ,
     bradford_adapt,
     delta_e94,

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from spectral_materials.core import cp
+from spectral_materials.core.decomposition import cp
 from spectral_materials.core.errors import Cancelled
 
 

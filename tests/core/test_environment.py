@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import environment, sh, spectra
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import environment, sh
 
 WL = spectra.WAVELENGTHS_REFERENCE
 

@@ -3,16 +3,10 @@
 import numpy as np
 import pytest
 
-from spectral_materials.core import (
-    Cancelled,
-    FactoredBRDF,
-    InvalidBRDFData,
-    factor_brdf,
-    metrics,
-    models,
-    spectra,
-)
-from spectral_materials.core.factor import factor_brdf_series, is_isotropic
+from spectral_materials.core import Cancelled, FactoredBRDF, InvalidBRDFData, factor_brdf
+from spectral_materials.core.brdf import metrics, models
+from spectral_materials.core.brdf.factor import factor_brdf_series, is_isotropic
+from spectral_materials.core.colour import spectra
 
 SMALL_ISO = (24, 48, 24)
 PATCH9 = spectra.colorchecker_spectrum(9)
@@ -213,7 +207,7 @@ def test_absurd_parameters_get_clear_errors():
 
 
 def test_mode_weights_and_scaling_fold_back_exactly():
-    from spectral_materials.core.factor import mode_weights, scale_modes
+    from spectral_materials.core.brdf.factor import mode_weights, scale_modes
 
     rng = np.random.default_rng(0)
     tensor = rng.uniform(0, 1, (6, 7, 5, 3)).astype(np.float32)
@@ -230,8 +224,8 @@ def test_mode_weights_and_scaling_fold_back_exactly():
 
 
 def test_weighted_factors_fold_back_to_the_unweighted_table():
-    from spectral_materials.core import cp
-    from spectral_materials.core.factor import prepare_table
+    from spectral_materials.core.brdf.factor import prepare_table
+    from spectral_materials.core.decomposition import cp
 
     brdf = models.AshikhminShirley(nu=32, nv=32, diffuse=spectra.colorchecker_spectrum(12),
                                    specular=0.05)

@@ -14,10 +14,10 @@ import pytest
 
 OpenEXR = pytest.importorskip("OpenEXR")
 
-from bombs_archives import BOMBS  # noqa: E402
+from bombs_archives import BOMBS
 
-from spectral_materials.core.formats import exr  # noqa: E402
-from spectral_materials.core.formats.exr import (  # noqa: E402
+from spectral_materials.core.formats import exr
+from spectral_materials.core.formats.exr import (
     EXRFileNotFound,
     InvalidEXRFile,
     read_exr,

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from colour.recovery import RGB_to_sd_Smits1999
 
-from spectral_materials.core import models
+from spectral_materials.core.brdf import models
+from spectral_materials.core.brdf.params import PARAMETERIZATIONS
 from spectral_materials.core.errors import InvalidBRDFData
 from spectral_materials.core.formats import merl
-from spectral_materials.core.params import PARAMETERIZATIONS
 
 WL = np.arange(400.0, 701.0, 10.0)
 SMALL = (4, 3, 6)  # a small table for the private shape-generic reader (fuzzing)
@@ -256,7 +256,7 @@ def test_shapes_and_horizon(brdf):
 
 
 def test_factor_brdf(brdf):
-    from spectral_materials.core.factor import factor_brdf
+    from spectral_materials.core.brdf.factor import factor_brdf
 
     model = factor_brdf(brdf, parameterization="hd", isotropic=True, resolution=(16, 16, 32),
                         packs=2, spectral_basis=8)

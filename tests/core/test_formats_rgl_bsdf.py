@@ -226,7 +226,7 @@ def test_rgb_file_and_smits_uplift(tmp_path):
 
 
 def test_factor_brdf_accepts_it(tmp_path):
-    from spectral_materials.core.factor import factor_brdf
+    from spectral_materials.core.brdf.factor import factor_brdf
 
     fields = _fields(npi=1, seed=7)
     b = rgl_bsdf.read_rgl_bsdf(_write(tmp_path, fields=fields)[0])

@@ -13,12 +13,12 @@ import pytest
 
 OpenEXR = pytest.importorskip("OpenEXR")
 
-from bombs_archives import BOMBS  # noqa: E402
+from bombs_archives import BOMBS
 
-from spectral_materials.core import spectra  # noqa: E402
-from spectral_materials.core.formats import spectral_exr as sx  # noqa: E402
-from spectral_materials.core.formats.exr import read_exr, write_exr  # noqa: E402
-from spectral_materials.core.formats.spectral_exr import (  # noqa: E402
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.formats import spectral_exr as sx
+from spectral_materials.core.formats.exr import read_exr, write_exr
+from spectral_materials.core.formats.spectral_exr import (
     InvalidSpectralImage,
     SpectralEXRFileNotFound,
     SpectralImage,

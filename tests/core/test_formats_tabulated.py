@@ -12,9 +12,12 @@ import numpy as np
 import pytest
 from bombs_archives import BOMBS
 
-from spectral_materials.core import factor_brdf, metrics, models, spectra
+from spectral_materials.core import factor_brdf
+from spectral_materials.core.brdf import metrics, models
+from spectral_materials.core.brdf.factored import FactoredBRDF
+from spectral_materials.core.brdf.params import get_parameterization
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.errors import InvalidBRDFData
-from spectral_materials.core.factored import FactoredBRDF
 from spectral_materials.core.formats.tabulated import (
     FORMAT,
     MAX_ENTRIES,
@@ -23,7 +26,6 @@ from spectral_materials.core.formats.tabulated import (
     tabulate_to_file,
     write_tabulated,
 )
-from spectral_materials.core.params import get_parameterization
 
 WL = spectra.WAVELENGTHS_REFERENCE
 RES = (8, 16, 8)

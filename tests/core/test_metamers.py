@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.metamers (metameric blacks, D65/A metamers).
+"""Tests of spectral_materials.core.colour.metamers (metameric blacks, D65/A metamers).
 
 Conventions: XYZ of a reflectance r is Σ r · xyz_weights / π (white Y = 1), ΔE94
 via core.colour_pipeline against the white under the illuminant in question.
@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import colour_pipeline, metamers, spectra
+from spectral_materials.core.colour import metamers, spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline
 
 WL = spectra.WAVELENGTHS_REFERENCE
 GREY = 22  # "neutral 5 (.70 D)"

@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.metrics (the measurement protocol in code)."""
+"""Tests of spectral_materials.core.brdf.metrics (the measurement protocol in code)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,7 @@ import colour
 import numpy as np
 import pytest
 
-from spectral_materials.core import colour_pipeline, spectra
-from spectral_materials.core.metrics import (
+from spectral_materials.core.brdf.metrics import (
     RANDOM_PAIRS,
     RANDOM_PAIRS_SEED,
     SPHERE_INCIDENCES_DEG,
@@ -19,6 +18,8 @@ from spectral_materials.core.metrics import (
     reference_xyz,
     sphere_directions,
 )
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 WL = spectra.WAVELENGTHS_REFERENCE
 Y_HAT = np.array([0.0, 1.0, 0.0])

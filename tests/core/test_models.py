@@ -1,4 +1,4 @@
-"""Tests for the analytic BRDF models (spectral_materials.core.models)."""
+"""Tests for the analytic BRDF models (spectral_materials.core.brdf.models)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import warnings
 import numpy as np
 import pytest
 
-from spectral_materials.core import models, spectra
-from spectral_materials.core.models import (
+from spectral_materials.core.brdf import models
+from spectral_materials.core.brdf.models import (
     MODELS,
     AshikhminShirley,
     CookTorranceGGX,
@@ -19,6 +19,7 @@ from spectral_materials.core.models import (
     fresnel_conductor,
     make_model,
 )
+from spectral_materials.core.colour import spectra
 
 WL1 = np.array([550.0])
 WL81 = spectra.WAVELENGTHS_REFERENCE

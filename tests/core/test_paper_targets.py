@@ -6,7 +6,9 @@ says: mean and p95 ΔE94 under D65 at the 20 000 random direction pairs.
 
 import pytest
 
-from spectral_materials.core import factor_brdf, metrics, models, spectra
+from spectral_materials.core import factor_brdf
+from spectral_materials.core.brdf import metrics, models
+from spectral_materials.core.colour import spectra
 
 pytestmark = pytest.mark.slow
 

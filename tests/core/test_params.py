@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.params (BRDF parameterisations and axis lookups)."""
+"""Tests of spectral_materials.core.brdf.params (BRDF parameterisations and axis lookups)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from spectral_materials.core import params
-from spectral_materials.core.params import (
+from spectral_materials.core.brdf import params
+from spectral_materials.core.brdf.params import (
     PARAMETERIZATIONS,
     Axis,
     axis_lookup,

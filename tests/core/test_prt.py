@@ -6,7 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import colour_pipeline, environment, prt, sh, spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import environment, sh
+from spectral_materials.core.prt import transfer as prt
 
 WL = spectra.WAVELENGTHS_REFERENCE
 
@@ -71,7 +74,7 @@ def test_albedo_layers_on_the_prt_basis_give_vertex_xyz():
     """The fragment shader's Σ_j Ê_j R̃_j(uv), with R̃ from core.albedo sampled at a texel
     centre and the basis from albedo.prt_basis, equals vertex_xyz of the spectrum — and,
     the light (and the albedos × CMFs) lying in the basis' span, the full 5 nm result."""
-    from spectral_materials.core import albedo
+    from spectral_materials.core.prt import albedo
 
     patches = np.stack([spectra.colorchecker(i, WL) for i in (4, 11, 18)])
     basis = albedo.prt_basis(patches, ["FL4"], WL, 10)

@@ -1,4 +1,4 @@
-"""The Monte Carlo PRT reference (core/prt_reference.py): analytic irradiance under a
+"""The Monte Carlo PRT reference (core/prt/reference.py): analytic irradiance under a
 uniform sky, the white's normalisation, agreement with SH PRT for the same visibility,
 suns as directional lights with shadow rays, reproducibility, and bad input."""
 
@@ -7,7 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core import colour_pipeline, environment, prt, prt_reference, sh, spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import environment, sh
+from spectral_materials.core.prt import reference as prt_reference
+from spectral_materials.core.prt import transfer as prt
 
 WL = spectra.WAVELENGTHS_REFERENCE
 WHITE = np.ones(WL.size)

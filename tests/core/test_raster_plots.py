@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from spectral_materials.core import raster_plots as rp
-from spectral_materials.core import spectra
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.raster_plots import (
     error_plot_layout,
     plot_error_against_packs,

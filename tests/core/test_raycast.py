@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from spectral_materials.core import raycast
+from spectral_materials.core.prt import raycast
 
 # "numpy-grid": the numpy backend with its brute-force path for small direction groups
 # switched off, so that single rays go through the projected grid too.

@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.scene_basis (the scene's own spectral basis).
+"""Tests of spectral_materials.core.colour.scene_basis (the scene's own spectral basis).
 
 The independent check recomputes every colour with colour-science's own
 tables and ``sd_to_XYZ_integration`` (the ``colour.sd_to_XYZ`` computation on
@@ -12,9 +12,11 @@ import numpy as np
 import pytest
 from colour.colorimetry import sd_to_XYZ_integration
 
-from spectral_materials.core import Cancelled, factor, models, spectra
-from spectral_materials.core.basis import light_cmf_spectra, linear_model_basis
-from spectral_materials.core.scene_basis import (
+from spectral_materials.core import Cancelled
+from spectral_materials.core.brdf import factor, models
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.basis import light_cmf_spectra, linear_model_basis
+from spectral_materials.core.colour.scene_basis import (
     DEFAULT_SIZE,
     SceneBasisChoice,
     choose_scene_basis,
@@ -343,7 +345,7 @@ class TestProgress:
 
 def test_large_scene_chunks_match(monkeypatch, albedo):
     """Chunking over spectra (across material boundaries) does not change the result."""
-    from spectral_materials.core import scene_basis
+    from spectral_materials.core.colour import scene_basis
 
     rng = np.random.default_rng(1)
     materials = {f"m{i}": lambertian_spectra(albedo[i] * rng.uniform(0.5, 1.0, (7, 1)))

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core.errors import Cancelled
-from spectral_materials.core.separable import (
+from spectral_materials.core.decomposition.separable import (
     SeparableFactors,
     matrix_view,
     normalized_decomposition,
     separable_svd,
 )
+from spectral_materials.core.errors import Cancelled
 
 SHAPE = (6, 5, 4, 7, 3)  # four angular axes, three spectral samples
 SPLIT = ((0, 1), (2, 3))

@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.sh (real orthonormal spherical harmonics)."""
+"""Tests of spectral_materials.core.prt.sh (real orthonormal spherical harmonics)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import scipy.special
 from numpy.polynomial import legendre
 from scipy.spatial.transform import Rotation
 
-from spectral_materials.core import sh
+from spectral_materials.core.prt import sh
 
 # --------------------------------------------------------------------------- helpers
 

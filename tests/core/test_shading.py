@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.shading, the float64 mirror of the shaders (no GPU here)."""
+"""Tests of spectral_materials.core.brdf.shading, the float64 mirror of the shaders (no GPU)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from spectral_materials.core import metrics, models, shading, spectra
-from spectral_materials.core.factor import factor_brdf
+from spectral_materials.core.brdf import metrics, models, shading
+from spectral_materials.core.brdf.factor import factor_brdf
+from spectral_materials.core.colour import spectra
 from spectral_materials.core.lights import SpectralLight
 
 WL = spectra.WAVELENGTHS_REFERENCE

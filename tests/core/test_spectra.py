@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.spectra (grid, CMFs, illuminants, reflectances).
+"""Tests of spectral_materials.core.colour.spectra (grid, CMFs, illuminants, reflectances).
 
 Reference values come from colour-science itself (``colour.MSDS_CMFS``,
 ``colour.SDS_ILLUMINANTS``, ``colour.SDS_COLOURCHECKERS``): the module must hand
@@ -11,8 +11,8 @@ import colour
 import numpy as np
 import pytest
 
-from spectral_materials.core import spectra
-from spectral_materials.core.spectra import (
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.spectra import (
     DELTA_LAMBDA_REFERENCE,
     ILLUMINANT_NAMES,
     WAVELENGTHS_REFERENCE,

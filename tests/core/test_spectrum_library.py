@@ -1,4 +1,4 @@
-"""Tests of spectral_materials.core.spectrum_library (typed text, CSV files, blackbodies).
+"""Tests of spectral_materials.core.colour.spectrum_library (typed text, CSV files, blackbodies).
 
 Reference values: Planck's law written out here with both the CIE's c₂ = 1.4388e-2 m·K
 and the CODATA 2018 constants, Wien's displacement law, and colour-science's own
@@ -15,8 +15,8 @@ import colour
 import numpy as np
 import pytest
 
-from spectral_materials.core import spectra
-from spectral_materials.core.spectrum_library import (
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour.spectrum_library import (
     MAX_CSV_BYTES,
     MAX_CSV_ROWS,
     SpectrumFileError,

@@ -1,7 +1,7 @@
 """Fixtures for the GPU draw path: the ``gpu`` module made usable once, factored models cached.
 
 The shaders (``glsl/``) are drawn offscreen (EGL + Mesa llvmpipe when headless)
-and held against their float64 mirror, ``core/shading.py``. Factorising is the
+and held against their float64 mirror, ``core/brdf/shading.py``. Factorising is the
 slow part, so each model is built once per session, at small resolutions.
 """
 
@@ -11,7 +11,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from gpu_helpers import build_model  # noqa: E402
+from gpu_helpers import build_model
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -21,7 +21,7 @@ def gpu_ready():
 
     import gpu
 
-    from spectral_materials.blender.gpu_context import ensure_gpu
+    from spectral_materials.blender.gpu.context import ensure_gpu
 
     ensure_gpu()
     # A leg that asks for a backend must get it: without a driver, Blender falls back from

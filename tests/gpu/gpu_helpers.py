@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from spectral_materials.blender.offscreen import render_sphere
-from spectral_materials.core import colour_pipeline, models, shading, spectra
-from spectral_materials.core.factor import factor_brdf
+from spectral_materials.blender.gpu.offscreen import render_sphere
+from spectral_materials.core.brdf import models, shading
+from spectral_materials.core.brdf.factor import factor_brdf
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 WL = spectra.WAVELENGTHS_REFERENCE
 PARAMETERIZATIONS = ("io", "io_iso", "hd", "hd_iso", "gs", "ea")

@@ -24,16 +24,17 @@ pytest.importorskip("bpy")
 
 import gpu  # noqa: E402  (importable once bpy is)
 
-from spectral_materials.blender import gpu_context  # noqa: E402
-from spectral_materials.blender.gpu_material import (  # noqa: E402
+from spectral_materials.blender.brdf.gpu_material import (
     DisplaySettings,
     MaterialUniforms,
     float_texture,
     params_block,
 )
-from spectral_materials.blender.offscreen import Target  # noqa: E402
-from spectral_materials.blender.shaders import glsl_source  # noqa: E402
-from spectral_materials.core import colour_pipeline, spectra  # noqa: E402
+from spectral_materials.blender.gpu import context as gpu_context
+from spectral_materials.blender.gpu.offscreen import Target
+from spectral_materials.blender.gpu.shaders import glsl_source
+from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import spectra
 
 EPS32 = float(np.finfo(np.float32).eps)
 SIZE = 32                                  # texels a side of every input grid

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from gpu_helpers import DARK_Y, MAX_DE94, WL, compare_lit, lights_pair, spd
 
-from spectral_materials.core import shading
+from spectral_materials.core.brdf import shading
+from spectral_materials.core.colour.spectrum_library import blackbody_spd
 from spectral_materials.core.lights import SpectralLight
-from spectral_materials.core.spectrum_library import blackbody_spd
 
 SPOT_POSITION = (0.5, 0.5, 2.5)
 SPOT_AXIS = (-0.2, -0.2, -1.0)

@@ -1,4 +1,4 @@
-"""The protocol sphere drawn by the shaders against the float64 mirror (core/shading.py).
+"""The protocol sphere drawn by the shaders against the float64 mirror (core/brdf/shading.py).
 
 Every parameterisation, incidences 0–80°, both spectral modes (pre-contracted
 light weights and the paper's per-coefficient dot products), the four protocol
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from gpu_helpers import MAX_DE94, PARAMETERIZATIONS, RESOLUTIONS, SIZE, WL, delta_e, protocol_pair
 
-from spectral_materials.blender.offscreen import render_sphere
-from spectral_materials.core import models, shading
-from spectral_materials.core.factor import factor_brdf
+from spectral_materials.blender.gpu.offscreen import render_sphere
+from spectral_materials.core.brdf import models, shading
+from spectral_materials.core.brdf.factor import factor_brdf
 
 #: (incidence in degrees, illuminant): each illuminant at least once.
 CASES = ((0.0, "D65"), (30.0, "A"), (60.0, "FL2"), (80.0, "FL11"))

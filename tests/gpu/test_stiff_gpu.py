@@ -25,9 +25,9 @@ from gpu_helpers import (
     spd,
 )
 
-from spectral_materials.blender.offscreen import render_sphere
-from spectral_materials.core import shading
-from spectral_materials.core.factored import FactoredBRDF
+from spectral_materials.blender.gpu.offscreen import render_sphere
+from spectral_materials.core.brdf import shading
+from spectral_materials.core.brdf.factored import FactoredBRDF
 from spectral_materials.core.lights import SpectralLight
 
 HALF_MAX = float(np.finfo(np.float16).max)              # 65504

@@ -15,7 +15,7 @@ Lookup (as the reference readers do; checked against wdas/brdf
 Matusik's ``BRDFRead.cpp``)
 -----------------------------------------------------------------------------
 * (θh, θd, φd) are Rusinkiewicz's half/difference angles, computed by
-  :func:`spectral_materials.core.params._hd_forward` (rotate wi by −φh about
+  :func:`spectral_materials.core.brdf.params._hd_forward` (rotate wi by −φh about
   n, then by −θh about the binormal: the same frame as the reference's
   rotations and as wdas' Gram–Schmidt form).
 * θh index = ⌊√(θh / (π/2)) · 90⌋ (square-root spacing, 0 for θh ≤ 0);
@@ -86,9 +86,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import spectra
+from ..brdf.params import PARAMETERIZATIONS, _hd_forward
+from ..colour import spectra
 from ..errors import InvalidBRDFData
-from ..params import PARAMETERIZATIONS, _hd_forward
 from ..sample_limits import MAX_SAMPLE, extreme_mask
 from ._files import atomic_write, read_errors
 

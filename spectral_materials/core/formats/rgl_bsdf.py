@@ -102,9 +102,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import spectra as _spectra
+from ..brdf.params import check_direction_pairs
+from ..colour import spectra as _spectra
 from ..errors import InvalidBRDFData
-from ..params import check_direction_pairs
 from ..sample_limits import WAVELENGTH_LIMITS_NM, describe_extreme
 from ._files import atomic_write, read_errors
 from .merl import SmitsUplift

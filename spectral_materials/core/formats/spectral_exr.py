@@ -289,7 +289,7 @@ def spectral_image_to_xyz(image: SpectralImage, illuminant=None) -> np.ndarray:
     :data:`spectra.SpectrumLike`; default ``"D65"``) and divided by
     ``Σ E(λ) ȳ(λ) Δλ`` over the same range, so a perfect white has Y = 1.
     """
-    from .. import spectra
+    from ..colour import spectra
 
     wl = np.asarray(image.wavelengths, dtype=np.float64)
     values = np.asarray(image.values)

@@ -9,7 +9,7 @@ A NumPy ``.npz`` archive (zip; stored or deflated members) with three arrays:
     multiplied by cos θi) at the cell centres of a grid over the axes of the
     parameterisation: axis ``k`` with ``n`` cells is sampled at
     ``Axis.centres(n)`` = ``from_unit((i + 0.5) / n)`` (see
-    :mod:`spectral_materials.core.params`; θh of ``hd``/``hd_iso`` is
+    :mod:`spectral_materials.core.brdf.params`; θh of ``hd``/``hd_iso`` is
     square-root warped). C order: the last angular axis varies fastest, then
     wavelength is the innermost axis. Grid points that map to no physical
     configuration (below the horizon, outside the unit discs of ``gs``) hold 0.
@@ -60,16 +60,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import spectra
-from ..errors import InvalidBRDFData
-from ..params import (
+from ..brdf.params import (
     PARAMETERIZATIONS,
     Parameterization,
     check_direction_pairs,
     get_parameterization,
 )
+from ..brdf.tabulate import Grid, interpolate, tabulate
+from ..colour import spectra
+from ..errors import InvalidBRDFData
 from ..progress import ProgressCallback
-from ..tabulate import Grid, interpolate, tabulate
 from ._files import atomic_write, open_zip_member
 
 FORMAT = "spectral_materials.tabulated_brdf"

@@ -71,7 +71,8 @@ def build() -> None:
 
 
 def draw() -> np.ndarray:
-    from spectral_materials.blender import draw as draw_module  # the old path, on purpose
+    # the old path, on purpose
+    from spectral_materials.blender.viewport import draw as draw_module
     return draw_module.render_camera(bpy.context.scene, width=SIZE[0], height=SIZE[1])[0]
 
 
@@ -88,5 +89,5 @@ def main() -> None:
 if __name__ == "__main__":
     main()
     sys.stdout.flush()
-    from spectral_materials.blender.gpu_context import exit_process
+    from spectral_materials.blender.gpu.context import exit_process
     exit_process(0)

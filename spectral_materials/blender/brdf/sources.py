@@ -1,0 +1,277 @@
+"""Snapshot what a material or light describes into plain data, and build BRDFs from it.
+
+Jobs run in a worker thread, which must not touch ``bpy``: the main thread calls
+:func:`material_inputs` / :func:`light_spd` first, which read every property, load
+every file and validate everything, raising :class:`SourceError` with a message that
+names the material or light and the problem. What they return is plain Python
+and NumPy, hashed by :func:`input_hash` to tell whether stored factors are current.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ...core.brdf import factor, models
+from ...core.brdf.params import get_parameterization
+from ...core.colour import spectra, spectrum_library
+from ...core.formats.brdf_files import read_brdf_file
+from ..ui.properties import MODEL_KEYS, PARAMETERIZATION_KEYS
+
+WAVELENGTHS = spectra.WAVELENGTHS_REFERENCE
+#: Exponents beyond this underflow every sample but the peak on any grid we can store.
+MAX_EXPONENT = 1e6
+MAX_THETA_CELLS = 180
+MAX_PACKS = 64
+MAX_PACK_SIZE = 16
+
+# Which spectra each model takes, in the property group's names (core name → property).
+MODEL_SPECTRA = {
+    "lambert": {"albedo": "diffuse"},
+    "oren_nayar": {"albedo": "diffuse"},
+    "ashikhmin_shirley": {"diffuse": "diffuse", "specular": "specular"},
+    "ward": {"diffuse": "diffuse", "specular": "specular"},
+    "ggx": {"ior_n": "ior_n", "ior_k": "ior_k", "diffuse": "diffuse"},
+}
+MODEL_SCALARS = {
+    "lambert": (),
+    "oren_nayar": ("sigma",),
+    "ashikhmin_shirley": ("nu", "nv"),
+    "ward": ("alpha_x", "alpha_y"),
+    "ggx": ("alpha_x", "alpha_y"),
+}
+#: Models with a specular lobe. "Automatic" factors them, when anisotropic, in
+#: half/difference angles, which align the lobe with the grid (the paper's case (c));
+#: isotropic ones stay in the 3-axis input/output layout, which measured better here.
+GLOSSY_MODELS = ("ashikhmin_shirley", "ward", "ggx")
+AUTO_GLOSSY = "auto_glossy"
+# Range the spectra of each role must lie in (checked before the model sees them).
+_SPECTRUM_RANGE = {"albedo": (0.0, 1.0), "diffuse": (0.0, 1.0), "specular": (0.0, 1.0),
+                   "ior_n": (1e-6, 100.0), "ior_k": (0.0, 100.0)}
+
+
+class SourceError(ValueError):
+    """A material or light cannot be used as described; the message says why."""
+
+
+@dataclass
+class MaterialInputs:
+    """Everything a factorisation of one material depends on, as plain data."""
+
+    name: str
+    source: str                               # "analytic" or "file"
+    model: str | None = None                  # core registry name
+    scalars: dict = field(default_factory=dict)
+    spectra: dict = field(default_factory=dict)   # core parameter → (L,) on WAVELENGTHS
+    filepath: str | None = None
+    file_sha256: str | None = None
+    parameterization: str = "io"
+    theta_cells: int = 32
+    packs: int = 4
+    target_de94: float | None = None
+    pack_size: int = 4
+    smoothing: int = 0
+
+    def brdf(self):
+        """The BRDF callable (may run in a worker thread)."""
+        if self.source == "file":
+            return read_brdf_file(self.filepath)
+        params = dict(self.scalars)
+        params.update({k: (WAVELENGTHS, v) for k, v in self.spectra.items()})
+        return models.make_model(self.model, **params)
+
+    def hash_payload(self) -> dict:
+        return {
+            "source": self.source, "model": self.model, "scalars": self.scalars,
+            "spectra": {k: np.asarray(v, np.float64).tobytes().hex()
+                        for k, v in sorted(self.spectra.items())},
+            "file": self.file_sha256, "parameterization": self.parameterization,
+            "theta_cells": self.theta_cells, "packs": self.packs,
+            "target_de94": self.target_de94, "pack_size": self.pack_size,
+            "smoothing": self.smoothing,
+        }
+
+
+def input_hash(inputs: MaterialInputs, basis: np.ndarray | None) -> str:
+    """SHA-256 over the inputs and the basis the factors are expressed on."""
+    digest = hashlib.sha256(json.dumps(inputs.hash_payload(), sort_keys=True).encode())
+    if basis is not None:
+        digest.update(np.ascontiguousarray(basis, dtype=np.float32).tobytes())
+    return digest.hexdigest()
+
+
+def _finite(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise SourceError(f"{name} is {value}; type a finite number")
+    return value
+
+
+def _abspath(path: str) -> str:
+    return bpy.path.abspath(path) if path else ""
+
+
+def _typed_or_csv(group) -> np.ndarray:
+    """A spectrum typed into ``group.text`` (kind TEXT) or read from ``group.filepath``."""
+    if group.kind == "TEXT":
+        pair = spectrum_library.parse_spectrum_text(group.text)
+    else:
+        path = _abspath(group.filepath)
+        if not path:
+            raise SourceError("no CSV file chosen")
+        pair = spectrum_library.read_spectrum_csv(path)
+    return spectrum_library.spectrum_to_grid(*pair, WAVELENGTHS)
+
+
+def spectrum_label(material_settings, param: str, prop: str) -> str:
+    """How the UI and messages name a model's spectrum ("Albedo" for the albedo role)."""
+    return "Albedo" if param == "albedo" else \
+        material_settings.bl_rna.properties[prop].name
+
+
+def spectrum_from_source(group, owner: str, label: str) -> np.ndarray:
+    """A spectrum property group → values on :data:`WAVELENGTHS`."""
+    what = f"{owner}: {label} spectrum"
+    try:
+        if group.kind == "COLORCHECKER":
+            return spectra.colorchecker(int(group.patch), WAVELENGTHS)
+        if group.kind == "CONSTANT":
+            return np.full(WAVELENGTHS.shape, _finite(f"{what} value", group.constant))
+        return _typed_or_csv(group)
+    except SourceError as exc:
+        raise SourceError(f"{what}: {exc}") from None
+    except (ValueError, OSError) as exc:
+        raise SourceError(f"{what}: {exc}") from None
+
+
+def resolve_auto(parameterization: str, isotropic: bool) -> str:
+    """The parameterisation "Automatic" stands for, once isotropy is known."""
+    if parameterization == AUTO_GLOSSY:
+        return "io" if isotropic else "hd"
+    return parameterization
+
+
+def resolution_for(parameterization: str, isotropic: bool, theta_cells: int) -> tuple[int, ...]:
+    """Scale the parameterisation's default grid so that θ has ``theta_cells`` cells per 90°."""
+    param = get_parameterization(parameterization, isotropic)
+    default = param.default_resolution
+    scale = theta_cells / 90.0
+    return tuple(max(2, int(round(n * scale))) for n in default)
+
+
+def _check_settings(name: str, settings) -> None:
+    if not 2 <= settings.theta_cells <= MAX_THETA_CELLS:
+        raise SourceError(f"{name}: θ cells must be in 2..{MAX_THETA_CELLS}, "
+                          f"got {settings.theta_cells}")
+    if not 1 <= settings.packs <= MAX_PACKS:
+        raise SourceError(f"{name}: packs must be in 1..{MAX_PACKS}, got {settings.packs}")
+    if not 1 <= settings.pack_size <= MAX_PACK_SIZE:
+        raise SourceError(f"{name}: pack size must be in 1..{MAX_PACK_SIZE}, "
+                          f"got {settings.pack_size}")
+    if not 0 <= settings.smoothing <= 31:
+        raise SourceError(f"{name}: smoothing must be in 0..31, got {settings.smoothing}")
+    if settings.use_target:
+        target = _finite(f"{name}: target ΔE94", settings.target_de94)
+        if not 0 < target <= 100:
+            raise SourceError(f"{name}: target ΔE94 must be in (0, 100], got {target}")
+
+
+def _check_scalars(name: str, model: str, scalars: dict, labels: dict) -> None:
+    for key, value in scalars.items():
+        _finite(f"{name}: {labels[key]}", value)
+    if model == "oren_nayar" and not 0 <= scalars["sigma"] <= math.pi / 2:
+        raise SourceError(f"{name}: Oren–Nayar σ must be in [0, π/2] radians, "
+                          f"got {scalars['sigma']}")
+    if model == "ashikhmin_shirley":
+        for key in ("nu", "nv"):
+            if not 1 <= scalars[key] <= MAX_EXPONENT:
+                raise SourceError(
+                    f"{name}: Ashikhmin–Shirley exponent {key} must be in [1, {MAX_EXPONENT:g}]"
+                    f" (below 1 the lobe is flat, above it narrower than any stored grid "
+                    f"resolves), got {scalars[key]:g}")
+
+
+def material_inputs(material) -> MaterialInputs:
+    """Read and validate a material's spectral description (main thread only)."""
+    s = material.spectral
+    name = f"Material '{material.name}'"
+    _check_settings(name, s)
+    parameterization = PARAMETERIZATION_KEYS[s.parameterization]
+    if s.parameterization == "AUTO" and s.source == "ANALYTIC" and \
+            MODEL_KEYS[s.model] in GLOSSY_MODELS:
+        parameterization = AUTO_GLOSSY
+    common = dict(name=material.name, parameterization=parameterization,
+                  theta_cells=int(s.theta_cells), packs=int(s.packs),
+                  target_de94=float(s.target_de94) if s.use_target else None,
+                  pack_size=int(s.pack_size), smoothing=int(s.smoothing))
+    if s.source == "FILE":
+        path = _abspath(s.filepath)
+        if not path:
+            raise SourceError(f"{name}: no data file chosen")
+        if not Path(path).is_file():
+            raise SourceError(f"{name}: data file {path} does not exist")
+        try:
+            read_brdf_file(path)     # validates header, sizes and samples now
+        except ValueError as exc:
+            raise SourceError(f"{name}: {exc}") from None
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return MaterialInputs(source="file", filepath=path, file_sha256=digest, **common)
+    model = MODEL_KEYS[s.model]
+    scalars = {key: float(getattr(s, key)) for key in MODEL_SCALARS[model]}
+    labels = {key: f"{s.bl_rna.properties[key].name} ({key})" for key in scalars}
+    _check_scalars(name, model, scalars, labels)
+    values = {}
+    for param, prop in MODEL_SPECTRA[model].items():
+        label = spectrum_label(s, param, prop).lower()
+        spectrum = spectrum_from_source(getattr(s, prop), name, label)
+        lo, hi = _SPECTRUM_RANGE[param]
+        bad = (spectrum < lo) | (spectrum > hi) | ~np.isfinite(spectrum)
+        if bad.any():
+            first = int(np.argmax(bad))
+            raise SourceError(f"{name}: {label} spectrum has {int(bad.sum())} values outside "
+                              f"[{lo:g}, {hi:g}], first {spectrum[first]:g} at "
+                              f"{WAVELENGTHS[first]:g} nm")
+        values[param] = spectrum
+    inputs = MaterialInputs(source="analytic", model=model, scalars=scalars, spectra=values,
+                            **common)
+    try:
+        inputs.brdf()
+    except ValueError as exc:
+        raise SourceError(f"{name}: {exc}") from None
+    return inputs
+
+
+def light_spd(light) -> np.ndarray:
+    """A light's SPD × power on :data:`WAVELENGTHS` (main thread only)."""
+    s = light.spectral
+    name = f"Light '{light.name}'"
+    power = _finite(f"{name}: power", s.power)
+    if power < 0:
+        raise SourceError(f"{name}: power must be ≥ 0, got {power}")
+    try:
+        if s.kind == "ILLUMINANT":
+            spd = spectra.illuminant(s.illuminant, WAVELENGTHS)
+        elif s.kind == "BLACKBODY":
+            spd = spectrum_library.blackbody_spd(_finite(f"{name}: temperature", s.temperature),
+                                                 WAVELENGTHS)
+        else:
+            spd = _typed_or_csv(s)
+        spectrum_library.check_spd(spd, name)
+    except (ValueError, OSError) as exc:
+        message = str(exc)
+        raise SourceError(message if message.startswith(name) else f"{name}: {message}") \
+            from None
+    return spd * power
+
+
+def sampled_spectra(brdf, isotropic: bool) -> np.ndarray:
+    """A BRDF's f·cosθi spectra every 10° (the spectra the scene basis must represent)."""
+    values = factor.sample_brdf_spectra(brdf, WAVELENGTHS, isotropic)
+    keep = np.abs(values).max(axis=1) > 0
+    return values[keep] if keep.any() else values[:1]

@@ -1,0 +1,413 @@
+"""The EEVEE node group that reconstructs a material's factor packs for its key light.
+
+``build_group(material, key_light, ...)`` writes a shader node group ``SM EEVEE
+<material>`` that does, in nodes, what ``glsl/surface_frag.glsl`` does for one
+light, stage by stage in labelled frames:
+
+1. *Shading frame*: n (Geometry normal), t (UV tangent, or the generated field
+   normalize(ŷ × n), x̂ at its poles), Gram–Schmidt; wi toward the key light (its
+   position or direction come from drivers on the light object), wo = Incoming.
+2. *Coordinates*: the parameterisation (io, io_iso, ea, hd, hd_iso) from local wi, wo.
+3. *Axis lookups*: indices and weight per axis, as ``params.axis_lookup``.
+4. *Packs*: per pack and axis, two texels of the factor image (``Closest``, so the
+   interpolation is the one written here, as in the GLSL), lerped and multiplied.
+5. *Colour*: each pack's 4 terms times their RGB weights for the key light (the
+   spectral factor folded with the light's SPD × CMFs, ``core.prefilter``), summed,
+   times the key light's irradiance / π: scene-linear radiance.
+
+Outputs: ``Key light`` (that radiance, for an Emission shader) and ``Base Color``,
+``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the key light's
+spectrum, ``core.prefilter.fit_principled``, for a Principled BSDF that the other
+lights and the world light). EEVEE gives nodes no per-light data: the key
+light is the only one evaluated spectrally and unshadowed (an emission casts no
+shadow); the apply step keeps it from also lighting the Principled BSDF.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ...core.brdf.factored import FactoredBRDF
+
+GROUP_PREFIX = "SM EEVEE "
+SUPPORTED = ("io", "io_iso", "ea", "hd", "hd_iso")
+#: Below this |v.xy| an azimuth is taken as 0 (as glsl/parameterization.glsl).
+POLE_RHO = 1e-5
+COLUMN = 190
+ROW = 150
+
+
+@dataclass
+class KeyLight:
+    """What the group needs of the key light; position/direction and strength are driven."""
+
+    object_name: str
+    kind: str                     # SUN, POINT, SPOT, AREA
+    weights: np.ndarray           # (terms, 3) RGB per unit irradiance (core.prefilter)
+    fit: dict                     # core.prefilter.fit_principled: base_color, roughness, …
+
+
+class Graph:
+    """A node tree with column layout, frames and socket-or-number inputs."""
+
+    def __init__(self, tree):
+        self.tree = tree
+        self.rows: dict[int, int] = {}
+        self.frame = None
+
+    def begin(self, label: str):
+        frame = self.tree.nodes.new("NodeFrame")
+        frame.label = label
+        frame.label_size = 16
+        self.frame = frame
+        return frame
+
+    def node(self, kind: str, column: int, label: str = "", **props):
+        node = self.tree.nodes.new(kind)
+        for key, value in props.items():
+            setattr(node, key, value)
+        if label:
+            node.label = label
+        row = self.rows.get(column, 0)
+        self.rows[column] = row + 1
+        node.location = (column * COLUMN, -row * ROW)
+        if self.frame is not None:
+            node.parent = self.frame
+        return node
+
+    def feed(self, socket, value) -> None:
+        if isinstance(value, bpy.types.NodeSocket):
+            self.tree.links.new(value, socket)
+        elif isinstance(value, tuple | list | np.ndarray):
+            socket.default_value = tuple(float(v) for v in value)
+        else:
+            socket.default_value = float(value)
+
+    def math(self, op: str, a, b=0.0, c=0.0, *, column: int, label: str = ""):
+        node = self.node("ShaderNodeMath", column, label, operation=op)
+        node.use_clamp = False
+        for socket, value in zip(node.inputs, (a, b, c)):
+            self.feed(socket, value)
+        return node.outputs[0]
+
+    def vmath(self, op: str, a, b=(0.0, 0.0, 0.0), *, scale=None, column: int, label: str = ""):
+        node = self.node("ShaderNodeVectorMath", column, label, operation=op)
+        self.feed(node.inputs[0], a)
+        self.feed(node.inputs[1], b)
+        if scale is not None:
+            self.feed(node.inputs["Scale"], scale)
+        return node.outputs[1 if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else 0]
+
+    def combine(self, x, y, z, *, column: int, label: str = ""):
+        node = self.node("ShaderNodeCombineXYZ", column, label)
+        for socket, value in zip(node.inputs, (x, y, z)):
+            self.feed(socket, value)
+        return node.outputs[0]
+
+    def separate(self, vector, *, column: int, label: str = ""):
+        node = self.node("ShaderNodeSeparateXYZ", column, label)
+        self.feed(node.inputs[0], vector)
+        return node.outputs[0], node.outputs[1], node.outputs[2]
+
+    def select(self, condition, a, b, *, column: int, vector: bool = False, label: str = ""):
+        """``a`` where condition (0/1) is 1, else ``b``."""
+        return self._mix(b, a, condition, clamp=True, column=column, vector=vector,
+                         label=label)
+
+    def lerp(self, a, b, w, *, column: int, vector: bool, label: str = ""):
+        """a + (b − a)·w with w unclamped (linear extrapolation at θ ends)."""
+        return self._mix(a, b, w, clamp=False, column=column, vector=vector, label=label)
+
+    def _mix(self, a, b, factor, *, clamp: bool, column: int, vector: bool, label: str):
+        """A Mix node (float or vector) returning a + (b − a)·factor."""
+        node = self.node("ShaderNodeMix", column, label,
+                         data_type="VECTOR" if vector else "FLOAT")
+        node.clamp_factor = clamp
+        kind = "VECTOR" if vector else "VALUE"
+        inputs = [s for s in node.inputs if s.enabled]
+        self.feed(inputs[0], factor)
+        self.feed([s for s in inputs if s.name == "A" and s.type == kind][0], a)
+        self.feed([s for s in inputs if s.name == "B" and s.type == kind][0], b)
+        return [s for s in node.outputs if s.enabled and s.type == kind][0]
+
+
+def group_name(material) -> str:
+    return GROUP_PREFIX + material.name
+
+
+def _spherical(g: Graph, v, column: int, name: str):
+    """(θ, φ) of a local unit vector: θ = atan2(|xy|, z), φ wrapped into [0, 2π), 0 at poles."""
+    x, y, z = g.separate(v, column=column, label=f"{name} xyz")
+    rho = g.vmath("LENGTH", g.combine(x, y, 0.0, column=column + 1), column=column + 2,
+                  label=f"|{name}.xy|")
+    theta = g.math("ARCTAN2", rho, z, column=column + 3, label=f"θ {name}")
+    phi = g.math("FLOORED_MODULO", g.math("ARCTAN2", y, x, column=column + 3),
+                 2.0 * math.pi, column=column + 4)
+    off_pole = g.math("GREATER_THAN", rho, POLE_RHO, column=column + 4)
+    phi = g.math("MULTIPLY", phi, off_pole, column=column + 5, label=f"φ {name}")
+    return theta, phi
+
+
+def _coordinates(g: Graph, parameterization: str, wi, wo, column: int) -> list:
+    if parameterization in ("io", "io_iso", "ea"):
+        ti, pi = _spherical(g, wi, column, "wi")
+        to, po = _spherical(g, wo, column, "wo")
+        if parameterization == "io":
+            return [ti, pi, to, po]
+        if parameterization == "ea":
+            return [ti, to, pi, po]
+        dphi = g.math("FLOORED_MODULO", g.math("SUBTRACT", po, pi, column=column + 6),
+                      2.0 * math.pi, column=column + 7, label="Δφ")
+        return [ti, dphi, to]
+    # Rusinkiewicz: h = norm(wi + wo) (n where undefined), d = Ry(−θh) Rz(−φh) wi.
+    total = g.vmath("ADD", wi, wo, column=column)
+    length = g.vmath("LENGTH", total, column=column + 1)
+    h = g.select(g.math("GREATER_THAN", length, 1e-7, column=column + 1),
+                 g.vmath("NORMALIZE", total, column=column + 1), (0.0, 0.0, 1.0),
+                 column=column + 2, vector=True, label="h")
+    th, ph = _spherical(g, h, column + 2, "h")
+    rotate_z = g.node("ShaderNodeVectorRotate", column + 8, "Rz(−φh)", rotation_type="Z_AXIS")
+    g.feed(rotate_z.inputs["Vector"], wi)
+    g.feed(rotate_z.inputs["Angle"], g.math("MULTIPLY", ph, -1.0, column=column + 7))
+    rotate_y = g.node("ShaderNodeVectorRotate", column + 9, "Ry(−θh)", rotation_type="Y_AXIS")
+    g.feed(rotate_y.inputs["Vector"], rotate_z.outputs[0])
+    g.feed(rotate_y.inputs["Angle"], g.math("MULTIPLY", th, -1.0, column=column + 8))
+    td, pd = _spherical(g, rotate_y.outputs[0], column + 10, "d")
+    return [th, ph, td, pd] if parameterization == "hd" else [th, td, pd]
+
+
+def _axis_lookup(g: Graph, value, axis, cells: int, clamp_edge: bool, column: int, k: int):
+    """(i0, i1, w) sockets, as params.axis_lookup (cells > 1)."""
+    span = float(axis.span)
+    if axis.periodic:
+        t = g.math("DIVIDE", g.math("FLOORED_MODULO", g.math("SUBTRACT", value, axis.lo,
+                                                             column=column), span,
+                                    column=column + 1), span, column=column + 2)
+    else:
+        t = g.math("DIVIDE", g.math("SUBTRACT", g.math("MINIMUM", g.math(
+            "MAXIMUM", value, axis.lo, column=column), axis.lo + span, column=column + 1),
+            axis.lo, column=column + 2), span, column=column + 2)
+    t = g.math("MINIMUM", g.math("MAXIMUM", t, 0.0, column=column + 3), 1.0, column=column + 3)
+    if axis.warp == "sqrt":
+        t = g.math("SQRT", t, column=column + 4)
+    x = g.math("MULTIPLY_ADD", t, float(cells), -0.5, column=column + 4,
+               label=f"axis {k}: x")
+    f = g.math("FLOOR", x, column=column + 5)
+    if axis.periodic:
+        w = g.math("SUBTRACT", x, f, column=column + 6, label=f"axis {k}: w")
+        i0 = g.math("FLOORED_MODULO", f, float(cells), column=column + 6, label=f"axis {k}: i0")
+        i1 = g.math("FLOORED_MODULO", g.math("ADD", i0, 1.0, column=column + 7), float(cells),
+                    column=column + 7, label=f"axis {k}: i1")
+        return i0, i1, w
+    i0 = g.math("MINIMUM", g.math("MAXIMUM", f, 0.0, column=column + 6), float(cells - 2),
+                column=column + 6, label=f"axis {k}: i0")
+    i1 = g.math("ADD", i0, 1.0, column=column + 7, label=f"axis {k}: i1")
+    w = g.math("SUBTRACT", x, i0, column=column + 7, label=f"axis {k}: w")
+    if clamp_edge:
+        w = g.math("MINIMUM", g.math("MAXIMUM", w, 0.0, column=column + 8), 1.0,
+                   column=column + 8)
+    return i0, i1, w
+
+
+def _key_light_drivers(g: Graph, key: KeyLight, column: int):
+    """Combine XYZ (toward-light direction for a sun, else position) and strength, driven."""
+    vector = g.node("ShaderNodeCombineXYZ", column, "key light (driven)")
+    strength = g.node("ShaderNodeValue", column, "key strength (driven)")
+    light_object = bpy.data.objects[key.object_name]
+    matrix_column = 2 if key.kind == "SUN" else 3      # +Z axis (toward the sun) / location
+    for index in range(3):
+        fcurve = vector.inputs[index].driver_add("default_value")
+        driver = fcurve.driver
+        driver.type = "SUM"
+        var = driver.variables.new()
+        var.name = "v"
+        var.type = "SINGLE_PROP"
+        var.targets[0].id_type = "OBJECT"
+        var.targets[0].id = light_object
+        var.targets[0].data_path = f"matrix_world[{matrix_column}][{index}]"
+    fcurve = strength.outputs[0].driver_add("default_value")
+    fcurve.driver.type = "SUM"
+    var = fcurve.driver.variables.new()
+    var.name = "energy"
+    var.type = "SINGLE_PROP"
+    var.targets[0].id_type = "LIGHT"
+    var.targets[0].id = light_object.data
+    var.targets[0].data_path = "energy"
+    return vector.outputs[0], strength.outputs[0]
+
+
+def _frame_and_light(g: Graph, key: KeyLight, use_uv_tangent: bool):
+    g.begin("Shading frame and key light")
+    geometry = g.node("ShaderNodeNewGeometry", 0, "Geometry")
+    n = g.vmath("NORMALIZE", geometry.outputs["Normal"], column=1, label="n")
+    generated = g.vmath("CROSS_PRODUCT", (0.0, 1.0, 0.0), n, column=1, label="ŷ × n")
+    has_generated = g.math("GREATER_THAN", g.vmath("LENGTH", generated, column=2), 1e-12,
+                           column=3)
+    generated = g.select(has_generated, g.vmath("NORMALIZE", generated, column=3),
+                         (1.0, 0.0, 0.0), column=4, vector=True, label="generated t")
+    if use_uv_tangent:
+        tangent = g.node("ShaderNodeTangent", 0, "UV tangent", direction_type="UV_MAP")
+        raw = tangent.outputs[0]
+        ortho = g.vmath("SUBTRACT", raw, g.vmath("SCALE", n, scale=g.vmath(
+            "DOT_PRODUCT", n, raw, column=1), column=2), column=3)
+        usable = g.math("GREATER_THAN", g.vmath("DOT_PRODUCT", ortho, ortho, column=4), 1e-8,
+                        column=5)
+        t = g.select(usable, g.vmath("NORMALIZE", ortho, column=5), generated, column=6,
+                     vector=True, label="t")
+    else:
+        t = generated
+    b = g.vmath("CROSS_PRODUCT", n, t, column=7, label="b = n × t")
+    vector, strength = _key_light_drivers(g, key, 0)
+    if key.kind == "SUN":
+        wi_world = g.vmath("NORMALIZE", vector, column=2, label="toward the sun")
+        irradiance = strength
+    else:
+        d = g.vmath("SUBTRACT", vector, geometry.outputs["Position"], column=1)
+        r2 = g.vmath("DOT_PRODUCT", d, d, column=2, label="r²")
+        wi_world = g.vmath("NORMALIZE", d, column=2, label="toward the light")
+        irradiance = g.math("DIVIDE", strength, g.math("MULTIPLY", r2, 4.0 * math.pi,
+                                                       column=3), column=4,
+                            label="P / (4π r²)")
+    wo_world = geometry.outputs["Incoming"]
+
+    def local(w, name):
+        return g.combine(g.vmath("DOT_PRODUCT", t, w, column=8),
+                         g.vmath("DOT_PRODUCT", b, w, column=8),
+                         g.vmath("DOT_PRODUCT", n, w, column=8), column=9, label=name)
+
+    wi, wo = local(wi_world, "wi (local)"), local(wo_world, "wo (local)")
+    lit = g.math("MULTIPLY", g.math("GREATER_THAN", g.separate(wi, column=10)[2], 0.0,
+                                    column=11),
+                 g.math("GREATER_THAN", g.separate(wo, column=10)[2], 0.0, column=11),
+                 column=12, label="lit")
+    return wi, wo, irradiance, lit
+
+
+def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
+                use_uv_tangent: bool = False, name: str | None = None):
+    """(Re)write the node group ``name`` (default: the material's); returns it.
+
+    Raises ValueError for what the EEVEE path cannot reconstruct.
+    """
+    parameterization = model.grid.parameterization.name
+    if parameterization not in SUPPORTED:
+        raise ValueError(f"Material '{material.name}': the EEVEE path supports the "
+                         f"{', '.join(SUPPORTED)} parameterisations, not {parameterization}; "
+                         "refactor with one of them")
+    if model.form != "cp":
+        raise ValueError(f"Material '{material.name}': only CP factor packs have an EEVEE path")
+    name = name or group_name(material)
+    group = bpy.data.node_groups.get(name)
+    if group is None:
+        group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.nodes.clear()
+    group.interface.clear()
+    group.interface.new_socket("Key light", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Base Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Roughness", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    group.interface.new_socket("IOR", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    g = Graph(group)
+    wi, wo, irradiance, lit = _frame_and_light(g, key, use_uv_tangent)
+    base = 14
+    g.begin(f"Coordinates ({parameterization})")
+    coords = _coordinates(g, parameterization, wi, wo, base)
+    base += 12
+    axes = model.grid.parameterization.axes
+    shape = model.grid.shape
+    lookups = []
+    g.begin("Axis lookups")
+    for k, (axis, cells) in enumerate(zip(axes, shape)):
+        if cells == 1:
+            lookups.append((0.0, 0.0, 0.0))
+        else:
+            lookups.append(_axis_lookup(g, coords[k], axis, cells, model.edge == "clamp",
+                                        base, k))
+    base += 10
+    width, height = image.size
+    groups = -(-model.terms // 4)
+    weights = np.zeros((groups * 4, 3))
+    weights[: model.terms] = key.weights
+    total = None
+    for pack in range(groups):
+        g.begin(f"Pack {pack + 1}")
+        colour = alpha = None
+        for k, (i0, i1, w) in enumerate(lookups):
+            v = (k * groups + pack + 0.5) / height
+            texels = []
+            for index in (i0, i1):
+                u = g.math("DIVIDE", g.math("ADD", index, 0.5, column=base), float(width),
+                           column=base + 1)
+                node = g.node("ShaderNodeTexImage", base + 2, f"axis {k} texel",
+                              interpolation="Closest", extension="EXTEND")
+                node.image = image
+                g.feed(node.inputs["Vector"], g.combine(u, v, 0.0, column=base + 1))
+                texels.append(node)
+            c = g.lerp(texels[0].outputs["Color"], texels[1].outputs["Color"], w,
+                       column=base + 3, vector=True)
+            a = g.lerp(texels[0].outputs["Alpha"], texels[1].outputs["Alpha"], w,
+                       column=base + 3, vector=False)
+            colour = c if colour is None else g.vmath("MULTIPLY", colour, c, column=base + 4)
+            alpha = a if alpha is None else g.math("MULTIPLY", alpha, a, column=base + 4)
+        r, gg, bb = g.separate(colour, column=base + 5)
+        pack_rgb = None
+        for term, amount in enumerate((r, gg, bb, alpha)):
+            scaled = g.vmath("SCALE", tuple(weights[4 * pack + term]), scale=amount,
+                             column=base + 6)
+            pack_rgb = scaled if pack_rgb is None else g.vmath("ADD", pack_rgb, scaled,
+                                                               column=base + 7)
+        total = pack_rgb if total is None else g.vmath("ADD", total, pack_rgb, column=base + 8)
+    g.begin("Key light radiance")
+    scale = g.math("MULTIPLY", g.math("MULTIPLY", irradiance, lit, column=base + 9),
+                   1.0 / math.pi, column=base + 10, label="E · lit / π")
+    radiance = g.vmath("SCALE", total, scale=scale, column=base + 11, label="key light")
+    g.begin("Other lights: Lambert + GGX fitted under the key light's spectrum")
+    output = g.node("NodeGroupOutput", base + 12)
+    group.links.new(radiance, output.inputs["Key light"])
+    fit = key.fit
+    colour = g.node("ShaderNodeRGB", base + 11, "diffuse colour (fit)")
+    colour.outputs[0].default_value = (*map(float, fit["base_color"]), 1.0)
+    group.links.new(colour.outputs[0], output.inputs["Base Color"])
+    # Principled's dielectric F0 = ((n − 1)/(n + 1))²: the IOR that gives the fitted F0.
+    root = math.sqrt(min(max(fit["specular"], 1e-6), 0.8))
+    for socket, label, value in (("Roughness", "roughness (fit)", fit["roughness"]),
+                                 ("IOR", "IOR of the fitted F0", (1.0 + root) / (1.0 - root))):
+        node = g.node("ShaderNodeValue", base + 11, label)
+        node.outputs[0].default_value = float(value)
+        group.links.new(node.outputs[0], output.inputs[socket])
+    return group
+
+
+#: EEVEE keeps every unlinked node input in one uniform block, which drivers cap at
+#: 64 KiB (GL_MAX_UNIFORM_BLOCK_SIZE on Mesa and NVIDIA). Its size is this factor times
+#: the inputs' own sizes (float 4 B, vector/colour 16 B, hidden ones included), measured
+#: on Blender 5.0.1 + Mesa 22.3: hd failed to link at 39 packs with a 65 552 B block,
+#: 1.504 × 43 600 B (docs/bench_eevee.md).
+UNIFORM_BLOCK_FACTOR = 1.504
+UNIFORM_BLOCK_LIMIT = 65536
+
+
+def uniform_bytes(group) -> int:
+    """The predicted size of EEVEE's node-constant uniform block for this group."""
+    total = 0
+    for node in group.nodes:
+        for socket in node.inputs:
+            if socket.is_linked or not hasattr(socket, "default_value"):
+                continue
+            if socket.type in ("VALUE", "INT"):
+                total += 4
+            elif socket.type in ("VECTOR", "RGBA"):
+                total += 16
+    return int(UNIFORM_BLOCK_FACTOR * total)
+
+
+def node_count(group) -> dict:
+    """Nodes in the group (frames excluded) and image-texture nodes."""
+    nodes = [n for n in group.nodes if n.bl_idname != "NodeFrame"]
+    images = [n for n in nodes if n.bl_idname == "ShaderNodeTexImage"]
+    return {"nodes": len(nodes), "image_nodes": len(images),
+            "images": len({n.image.name for n in images if n.image is not None}),
+            "uniform_bytes": uniform_bytes(group)}

@@ -1,0 +1,157 @@
+"""Shader variants: the GLSL in ``glsl/`` assembled through ``gpu.shader.create_from_info``.
+
+A :class:`ShaderKey` is everything a variant is compiled with (``#define``s): the
+geometry (mesh or the protocol sphere), the parameterisation, the axis count, the
+packs drawn, the spectral size, the light count and types, the spectral mode and
+the output. Only what the key names is compiled in; :func:`get_shader` caches one
+shader per key, so a variant is rebuilt only when the scene's needs change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...core.lights import LIGHT_CODES
+
+GLSL_DIR = Path(__file__).resolve().parents[3] / "glsl"
+
+PARAMETERIZATION_CODES = {"io": 0, "io_iso": 1, "hd": 2, "hd_iso": 3, "gs": 4, "ea": 5}
+OUTPUTS = {"XYZ": 0, "DISPLAY": 1, "POSITION": 2, "NORMAL": 3, "TANGENT": 4, "COORDINATES": 5}
+#: Fragment sources in the order they are concatenated (each uses the ones before).
+FRAGMENT_LIBRARY = ("common.glsl", "parameterization.glsl", "axis_lookup.glsl",
+                    "factor_packs.glsl", "spectral_basis.glsl", "lights.glsl", "frame.glsl",
+                    "colour_pipeline.glsl")
+
+#: Lights one variant draws. The light loop may be unrolled into one copy of the pack
+#: loop per light, and the frame time grows linearly with lights (docs/bench_draw.md):
+#: a bound keeps compile time and frame time predictable.
+MAX_LIGHTS = 32
+
+_CACHE: dict = {}
+
+
+def light_type_bits(kinds) -> int:
+    """``SM_LIGHT_TYPES``: bit ``LIGHT_CODES[kind]`` set for each light type drawn, so that
+    glsl/lights.glsl compiles only the branches a scene needs."""
+    bits = 0
+    for kind in kinds:
+        bits |= 1 << LIGHT_CODES[kind]
+    return bits
+
+
+@dataclass(frozen=True)
+class ShaderKey:
+    """The ``#define``s of one variant."""
+
+    parameterization: str
+    axes: int
+    packs: int
+    coefficients: int
+    lights: int
+    light_types: frozenset
+    cosine_weighted: bool = True
+    precontract: bool = True
+    output: str = "XYZ"
+    sphere: bool = False
+
+    def defines(self) -> dict[str, str]:
+        out = {
+            "SM_PARAM": str(PARAMETERIZATION_CODES[self.parameterization]),
+            "SM_AXES": str(self.axes),
+            "SM_PACKS": str(self.packs),
+            "SM_COEFFS": str(self.coefficients),
+            "SM_LIGHTS": str(self.lights),
+            "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
+            "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
+            "SM_PRECONTRACT": "1" if self.precontract else "0",
+            "SM_OUTPUT": str(OUTPUTS[self.output]),
+        }
+        if self.sphere:
+            out["SM_GEOMETRY_SPHERE"] = "1"
+        return out
+
+    def validate(self) -> None:
+        if self.parameterization not in PARAMETERIZATION_CODES:
+            raise ValueError(f"no shader for parameterisation {self.parameterization!r}")
+        if not 1 <= self.axes <= 4:
+            raise ValueError(f"shaders handle 1..4 angular axes, got {self.axes}")
+        if self.packs < 1 or self.coefficients < 1 or self.lights < 1:
+            raise ValueError(f"a variant needs ≥ 1 pack, coefficient and light: {self}")
+        if self.lights > MAX_LIGHTS:
+            raise ValueError(f"{self.lights} lights reach the scene; the spectral shaders draw "
+                             f"at most {MAX_LIGHTS}: hide or disable some lights")
+        if self.output not in OUTPUTS:
+            raise ValueError(f"unknown output {self.output!r}; valid: {sorted(OUTPUTS)}")
+
+
+def glsl_source(name: str) -> str:
+    """One file of ``glsl/``."""
+    return (GLSL_DIR / name).read_text(encoding="utf-8")
+
+
+def fragment_source() -> str:
+    return "\n".join(glsl_source(name) for name in FRAGMENT_LIBRARY) + "\n" + \
+        glsl_source("surface_frag.glsl")
+
+
+def create_info(key: ShaderKey):
+    """The ``GPUShaderCreateInfo`` of a variant."""
+    import gpu
+
+    key.validate()
+    info = gpu.types.GPUShaderCreateInfo()
+    for name, value in key.defines().items():
+        info.define(name, value)
+    info.typedef_source(glsl_source("params.glsl"))
+    info.uniform_buf(0, "SmParams", "sm")
+    info.sampler(0, "FLOAT_2D", "factor_tex")
+    info.sampler(1, "FLOAT_2D", "light_tex")
+    if key.sphere:
+        info.vertex_in(0, "VEC2", "corner")
+        info.vertex_source(glsl_source("sphere_vert.glsl"))
+    else:
+        # Per object: exactly the 128 bytes of push constants every backend supports.
+        info.push_constant("MAT4", "model_matrix")
+        info.push_constant("MAT4", "normal_matrix")
+        info.vertex_in(0, "VEC3", "position")
+        info.vertex_in(1, "VEC3", "normal")
+        info.vertex_in(2, "VEC4", "tangent")
+        interface = gpu.types.GPUStageInterfaceInfo("sm_surface_interface")
+        for name in ("world_position", "world_normal", "world_tangent"):
+            interface.smooth("VEC3", name)
+        info.vertex_out(interface)
+        info.vertex_source(glsl_source("mesh_vert.glsl"))
+    info.fragment_out(0, "VEC4", "frag_colour")
+    info.fragment_source(fragment_source())
+    return info
+
+
+def get_shader(key, create=None):
+    """The compiled variant for ``key`` (cached): ``create(key)`` gives its create-info,
+    :func:`create_info` by default (other shader families, e.g. ``prt_gpu``, pass theirs;
+    their keys are other types, so they never collide)."""
+    shader = _CACHE.get(key)
+    if shader is None:
+        import gpu
+
+        from .context import ensure_gpu
+
+        ensure_gpu()
+        shader = gpu.shader.create_from_info((create or create_info)(key))
+        _CACHE[key] = shader
+    return shader
+
+
+def cached_variants() -> list[ShaderKey]:
+    return list(_CACHE)
+
+
+def clear_cache() -> None:
+    # Blender's GPU context remembers the last bound shader by address; freeing the
+    # variants while one is bound leaves that address behind (see gpu_state).
+    if _CACHE:
+        import gpu
+
+        gpu.shader.unbind()
+    _CACHE.clear()

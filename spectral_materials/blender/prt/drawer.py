@@ -1,0 +1,294 @@
+"""Drawing PRT objects: the spectral PRT paper's two dot products on the GPU.
+
+The vertex stage (glsl/prt_vert.glsl) computes Ê = T̃ · L̃ per vertex, the fragment stage
+(glsl/prt_frag.glsl) XYZ = Σ_j Ê_j R̃_j(uv). The PRT shader variants are separate from
+the factor-pack shaders and are compiled only when a scene has PRT objects.
+
+Per object, on the GPU: a batch of mesh corners (position, UV, vertex index), the
+transfer texture (RGBA32F, ``ceil(K/4)`` texels per vertex, :data:`TRANSFER_WIDTH`
+texels a row), the environment texture (one row per SH coefficient, padded to a
+multiple of 4, ``ceil(m/4)`` texels of spectral coefficients, already turned into the
+object's frame by ``prt.object_rotation`` (a reflection for a mirrored object) and
+divided by the scene's white Y, that of the world frame, as ``prt.vertex_xyz`` is) and
+the albedo texture array (``m`` layers of R̃). Each is rebuilt only when its inputs
+change.
+
+``rgb=True`` draws classical RGB PRT (L̃ and the albedo reduced to linear sRGB, one
+layer), the baseline of the frame-time and accuracy comparisons.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...core.prt import transfer as core_prt
+from ..brdf.gpu_material import (
+    DisplaySettings,
+    array_texture,
+    display_matrices,
+    float_texture,
+    std140_mat4,
+)
+from ..gpu import batches as mesh_batches
+from ..gpu import shaders
+from ..gpu.shaders import OUTPUTS, glsl_source
+from . import bake
+from . import scene as prt
+
+TRANSFER_WIDTH = 4096
+#: Spectral coefficients the varyings carry (4 vec4).
+MAX_COEFFICIENTS = 16
+PRT_OUTPUTS = dict(OUTPUTS, PRIMITIVE=6)
+PARAMS_BYTES = 4 * 64 + 2 * 16
+
+_OBJECTS: dict[str, dict] = {}
+#: PRT objects that could not be drawn: name → reason (shown in the panel).
+FAILED: dict[str, str] = {}
+
+
+@dataclass(frozen=True)
+class PRTShaderKey:
+    sh_coefficients: int
+    coefficients: int           # spectral basis size (3 for RGB PRT)
+    rgb: bool = False
+    output: str = "DISPLAY"
+
+    @property
+    def texels(self) -> int:
+        return -(-self.sh_coefficients // 4)
+
+    @property
+    def vec4s(self) -> int:
+        return -(-self.coefficients // 4)
+
+    def defines(self) -> dict[str, str]:
+        return {"SM_PRT_TEXELS": str(self.texels), "SM_PRT_COEFFS": str(self.coefficients),
+                "SM_PRT_VEC4": str(self.vec4s), "SM_PRT_RGB": "1" if self.rgb else "0",
+                "SM_OUTPUT": str(PRT_OUTPUTS[self.output])}
+
+    def validate(self) -> None:
+        if not 1 <= self.coefficients <= MAX_COEFFICIENTS:
+            raise ValueError(f"the PRT shader carries 1..{MAX_COEFFICIENTS} spectral "
+                             f"coefficients, got {self.coefficients}")
+        if self.output not in PRT_OUTPUTS:
+            raise ValueError(f"unknown output {self.output!r}")
+
+
+def create_info(key: PRTShaderKey):
+    import gpu
+
+    key.validate()
+    info = gpu.types.GPUShaderCreateInfo()
+    for name, value in key.defines().items():
+        info.define(name, value)
+    info.typedef_source(glsl_source("prt_params.glsl"))
+    info.uniform_buf(0, "SmPrtParams", "sm")
+    info.sampler(0, "FLOAT_2D", "transfer_tex")
+    info.sampler(1, "FLOAT_2D", "environment_tex")
+    info.sampler(2, "FLOAT_2D_ARRAY", "albedo_tex")
+    info.push_constant("MAT4", "model_matrix")
+    info.vertex_in(0, "VEC3", "position")
+    info.vertex_in(1, "VEC2", "uv")
+    info.vertex_in(2, "FLOAT", "vertex_index")
+    interface = gpu.types.GPUStageInterfaceInfo("sm_prt_interface")
+    for b in range(key.vec4s):
+        interface.smooth("VEC4", f"prt_e{b}")
+    interface.smooth("VEC3", "world_position")
+    interface.smooth("VEC2", "tex_uv")
+    info.vertex_out(interface)
+    info.vertex_source(glsl_source("prt_vert.glsl"))
+    info.fragment_out(0, "VEC4", "frag_colour")
+    info.fragment_source(glsl_source("colour_pipeline.glsl") + "\n" +
+                         glsl_source("prt_frag.glsl"))
+    return info
+
+
+def get_shader(key: PRTShaderKey):
+    """The compiled PRT variant (cached with the other variants in ``shaders``)."""
+    return shaders.get_shader(key, create_info)
+
+
+def params_block(view_projection: np.ndarray, display: DisplaySettings,
+                 transfer_width: int, albedo_size: tuple[int, int]) -> bytes:
+    """The std140 bytes of ``SmPrtParams`` (glsl/prt_params.glsl), matrices column-major."""
+    adapt, to_rgb, to_xyz = display_matrices(tuple(display.scene_white))
+    parts = [std140_mat4(view_projection), adapt, to_rgb, to_xyz,
+             np.asarray((display.exposure, display.tone_white, 0.0, 0.0), np.float32),
+             np.asarray((transfer_width, albedo_size[0], albedo_size[1], 0), np.int32)]
+    data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
+    assert len(data) == PARAMS_BYTES
+    return data
+
+
+# ----------------------------------------------------------------------- object data
+
+
+@dataclass
+class PRTMeshArrays:
+    """Per-corner position, UV and vertex index, the triangles, and the transfer."""
+
+    positions: np.ndarray       # (C, 3) float32
+    uvs: np.ndarray             # (C, 2) float32
+    vertex_index: np.ndarray    # (C,) float32 (exact below 2²⁴ vertices)
+    triangles: np.ndarray       # (T, 3) int32, corner indices
+    transfer: np.ndarray        # (V, K) float32
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.positions.nbytes + self.uvs.nbytes + self.vertex_index.nbytes
+                   + self.triangles.nbytes + self.transfer.nbytes)
+
+
+def prt_mesh_arrays(obj, mesh) -> PRTMeshArrays:
+    transfer = bake.load_transfer(mesh)
+    if transfer is None:
+        raise prt.PRTError(f"Object '{obj.name}' has no current PRT transfer: bake it")
+    if len(mesh.vertices) >= 1 << 24:
+        raise prt.PRTError(f"Object '{obj.name}': PRT draws meshes below 2²⁴ vertices")
+    mesh.calc_loop_triangles()
+    corners = len(mesh.loops)
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    index = np.empty(corners, dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", index)
+    uvs = np.zeros(corners * 2, dtype=np.float32)
+    if mesh.uv_layers.active is not None and corners:
+        mesh.uv_layers.active.uv.foreach_get("vector", uvs)
+    tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("loops", tris)
+    # Corners that share a vertex and a UV are one GPU vertex: the vertex stage's T̃ · L̃
+    # then runs about once per mesh vertex instead of once per corner (≈ 4× on quads).
+    uvs = uvs.reshape(-1, 2)
+    keys = np.concatenate([index[:, None].view(np.float32), uvs], axis=1)
+    unique, first, inverse = np.unique(keys.view(np.dtype((np.void, 12))).ravel(),
+                                       return_index=True, return_inverse=True)
+    del unique
+    positions = co.reshape(-1, 3)[index[first]]
+    return PRTMeshArrays(np.ascontiguousarray(positions), np.ascontiguousarray(uvs[first]),
+                         index[first].astype(np.float32),
+                         inverse.astype(np.int32)[tris].reshape(-1, 3), transfer)
+
+
+def transfer_texels(transfer: np.ndarray, width: int = TRANSFER_WIDTH) -> np.ndarray:
+    """(rows, width, 4) texels: vertex v's coefficients at texels v·⌈K/4⌉ …, zero padded."""
+    v, k = transfer.shape
+    per = -(-k // 4)
+    flat = np.zeros((v, per * 4), dtype=np.float32)
+    flat[:, :k] = transfer
+    texels = flat.reshape(-1, 4)
+    width = min(width, max(1, len(texels)))
+    rows = -(-len(texels) // width)
+    out = np.zeros((rows * width, 4), dtype=np.float32)
+    out[: len(texels)] = texels
+    return out.reshape(rows, width, 4)
+
+
+def environment_texels(coefficients: np.ndarray) -> np.ndarray:
+    """(4·⌈K/4⌉, ⌈m/4⌉, 4) texels of L̃ (K, m): row k holds coefficient k's spectrum."""
+    k, m = coefficients.shape
+    out = np.zeros((-(-k // 4) * 4, -(-m // 4) * 4), dtype=np.float32)
+    out[:k, :m] = coefficients
+    return out.reshape(out.shape[0], -1, 4)
+
+
+
+
+def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
+    """The object's batch and textures, rebuilt piecewise when their inputs change."""
+    import gpu
+
+    entry = _OBJECTS.setdefault(obj.name, {})
+    mesh_key = (obj.data.name, mesh_batches.serial(obj.name))
+    if entry.get("mesh_key") != mesh_key:
+        evaluated = obj.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            arrays = prt_mesh_arrays(obj, mesh)
+        finally:
+            evaluated.to_mesh_clear()
+        fmt = gpu.types.GPUVertFormat()
+        fmt.attr_add(id="position", comp_type="F32", len=3, fetch_mode="FLOAT")
+        fmt.attr_add(id="uv", comp_type="F32", len=2, fetch_mode="FLOAT")
+        fmt.attr_add(id="vertex_index", comp_type="F32", len=1, fetch_mode="FLOAT")
+        vbo = gpu.types.GPUVertBuf(fmt, len(arrays.positions))
+        vbo.attr_fill("position", arrays.positions)
+        vbo.attr_fill("uv", np.ascontiguousarray(arrays.uvs))
+        vbo.attr_fill("vertex_index", arrays.vertex_index)
+        ibo = gpu.types.GPUIndexBuf(type="TRIS", seq=arrays.triangles)
+        texels = transfer_texels(arrays.transfer)
+        entry.clear()
+        entry.update(mesh_key=mesh_key, arrays=arrays,
+                     batch=gpu.types.GPUBatch(type="TRIS", buf=vbo, elem=ibo),
+                     transfer=float_texture(texels), transfer_width=texels.shape[1])
+    state = prt.scene_environment(scene)
+    rotation = prt.object_rotation(obj)
+    env_key = (state.key, rotation.round(9).tobytes(), rgb)
+    if entry.get("env_key") != env_key:
+        environment = state.environment.rotated(rotation.T)
+        if environment.coefficients.shape[0] != entry["arrays"].transfer.shape[1]:
+            raise prt.PRTError(f"Object '{obj.name}' was baked with "
+                               f"{entry['arrays'].transfer.shape[1]} SH coefficients, the "
+                               f"environment has {environment.coefficients.shape[0]}: bake "
+                               "it again")
+        coefficients = core_prt.rgb_environment(environment) if rgb else \
+            environment.coefficients
+        entry["environment"] = float_texture(environment_texels(coefficients / state.white_y))
+        entry["env_key"] = env_key
+    layers = prt.albedo_layers(obj, scene)
+    albedo_key = (layers.key, rgb)
+    if entry.get("albedo_key") != albedo_key:
+        data = layers.layers
+        if rgb:
+            source = prt.albedo_source(obj)
+            data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
+        entry["albedo"] = array_texture(data)
+        entry["albedo_size"] = (data.shape[2], data.shape[1])
+        entry["albedo_key"] = albedo_key
+    entry["coefficients"] = 3 if rgb else layers.layers.shape[0]
+    return entry
+
+
+def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
+                     output: str = "DISPLAY", display: DisplaySettings | None = None,
+                     rgb: bool = False, objects=None) -> list[str]:
+    """Draw the scene's PRT objects into the bound framebuffer; returns their names."""
+    import gpu
+
+    # draw imports this module
+    from ..viewport.draw import set_matrix
+
+    objects = prt.prt_objects(scene) if objects is None else objects
+    if not objects:
+        return []
+    display = display or DisplaySettings()
+    drawn = []
+    FAILED.clear()
+    for obj in objects:
+        try:
+            entry = _object_resources(obj, scene, depsgraph, rgb)
+        except prt.PRTError as exc:
+            # One object without a bake must not stop the others from drawing.
+            FAILED[obj.name] = str(exc)
+            _OBJECTS.pop(obj.name, None)
+            continue
+        key = PRTShaderKey(entry["arrays"].transfer.shape[1], entry["coefficients"], rgb,
+                           output)
+        shader = get_shader(key)
+        shader.bind()
+        params = gpu.types.GPUUniformBuf(params_block(
+            view_projection, display, entry["transfer_width"], entry["albedo_size"]))
+        shader.uniform_block("sm", params)
+        shader.uniform_sampler("transfer_tex", entry["transfer"])
+        shader.uniform_sampler("environment_tex", entry["environment"])
+        shader.uniform_sampler("albedo_tex", entry["albedo"])
+        set_matrix(shader, "model_matrix", np.array(obj.matrix_world))
+        entry["batch"].draw(shader)
+        drawn.append(obj.name)
+    return drawn
+
+
+def clear_cache() -> None:
+    _OBJECTS.clear()
+    FAILED.clear()

@@ -1,0 +1,1 @@
+"""Property groups, operators and panels."""

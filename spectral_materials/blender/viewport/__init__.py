@@ -1,0 +1,1 @@
+"""The viewport draw handler and offscreen scene renders."""

@@ -1,0 +1,43 @@
+"""The add-on's import paths from before the package reorganisation, as README.md used
+them, still work for one release with a DeprecationWarning."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+import pytest
+
+pytest.importorskip("bpy")
+
+from spectral_materials import _moved
+
+ROOT = "spectral_materials"
+
+
+def _forget(old: str) -> None:
+    """Undo an earlier import of an old path, so that importing it again warns again."""
+    sys.modules.pop(f"{ROOT}.{old}", None)
+    parent, _, name = f"{ROOT}.{old}".rpartition(".")
+    vars(sys.modules[parent]).pop(name, None)
+
+
+@pytest.mark.parametrize(("old", "new"), [(o, n) for o, n in _moved.MOVED_MODULES.items()
+                                          if o.startswith("blender.")])
+def test_an_old_blender_path_is_the_new_module_with_a_warning(old, new):
+    _forget(old)
+    with pytest.warns(DeprecationWarning, match=rf"{ROOT}\.{new}"):
+        module = importlib.import_module(f"{ROOT}.{old}")
+    assert module is importlib.import_module(f"{ROOT}.{new}")
+
+
+@pytest.mark.parametrize(("package", "module"), [
+    (old, new.rpartition(".")[2]) for old, new in _moved.MODULES_NOW_PACKAGES.items()
+    if old.startswith("blender.")])
+def test_old_blender_modules_now_packages_forward_their_names(package, module):
+    new = importlib.import_module(f"{ROOT}.{package}.{module}")
+    name = next(n for n in vars(new) if not n.startswith("_") and callable(getattr(new, n))
+                and getattr(getattr(new, n), "__module__", "") == new.__name__)
+    pkg = importlib.import_module(f"{ROOT}.{package}")
+    with pytest.warns(DeprecationWarning, match=rf"{package}\.{module}\.{name}"):
+        assert getattr(pkg, name) is getattr(new, name)
