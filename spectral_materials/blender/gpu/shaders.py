@@ -95,8 +95,9 @@ def fragment_source() -> str:
         glsl_source("surface_frag.glsl")
 
 
-def create_info(key: ShaderKey):
-    """The ``GPUShaderCreateInfo`` of a variant."""
+def create_info(key: ShaderKey, fragment: str | None = None):
+    """The ``GPUShaderCreateInfo`` of a variant. ``fragment`` replaces the fragment source
+    (:func:`fragment_source`): the draw benchmark's rolled-loop control passes a variant."""
     import gpu
 
     key.validate()
@@ -123,7 +124,7 @@ def create_info(key: ShaderKey):
         info.vertex_out(interface)
         info.vertex_source(glsl_source("mesh_vert.glsl"))
     info.fragment_out(0, "VEC4", "frag_colour")
-    info.fragment_source(fragment_source())
+    info.fragment_source(fragment_source() if fragment is None else fragment)
     return info
 
 
