@@ -168,7 +168,7 @@ def test_rgb_uplift_of_grey_is_flat():
     # With a basis, the uplifted texels are projected like any spectrum.
     basis = _orthonormal(4)
     rgb = np.array([[[0.7, 0.2, 0.1], [0.05, 0.3, 0.6]]])
-    from spectral_materials.core.formats.merl import SmitsUplift
+    from spectral_materials.core.colour.uplift import SmitsUplift
 
     spectra_rgb = SmitsUplift()(rgb.reshape(-1, 3), WL).reshape(1, 2, WL.size)
     np.testing.assert_allclose(albedo.albedo_layers_from_rgb(rgb, WL, basis).layers,

@@ -167,7 +167,7 @@ def test_equirect_reference_returns_the_pixel_containing_the_direction(rgb):
     values = rng.uniform(0.0, 2.0, (height, width, 3 if rgb else WL.size))
     reference = environment.equirect_reference(values, WL, rgb=rgb)
     centres, solid = environment.equirect_directions(height, width)
-    from spectral_materials.core.formats.merl import SmitsUplift
+    from spectral_materials.core.colour.uplift import SmitsUplift
 
     spectral = SmitsUplift()(values.reshape(-1, 3), WL).reshape(height, width, -1) if rgb \
         else values

@@ -11,6 +11,7 @@ from colour.recovery import RGB_to_sd_Smits1999
 
 from spectral_materials.core.brdf import models
 from spectral_materials.core.brdf.params import PARAMETERIZATIONS
+from spectral_materials.core.colour import uplift
 from spectral_materials.core.errors import InvalidBRDFData
 from spectral_materials.core.formats import merl
 
@@ -169,7 +170,7 @@ def test_close_to_the_analytic_model(brdf):
                                  (0.05, 0.9, 0.02)])
 def test_smits_matches_colour_science(rgb):
     sd = RGB_to_sd_Smits1999(np.array(rgb))
-    up = merl.SmitsUplift()
+    up = uplift.SmitsUplift()
     got = up(np.array([rgb]), sd.wavelengths)[0]
     np.testing.assert_allclose(got, sd.values, atol=1e-12)
     # linear in scale (k >= 0), so BRDF values above 1 are fine
@@ -184,7 +185,7 @@ def test_smits_matches_colour_science(rgb):
 def test_smits_vectorised_many():
     rng = np.random.default_rng(1)
     rgb = rng.uniform(0, 1, (50, 3))
-    up = merl.SmitsUplift()
+    up = uplift.SmitsUplift()
     sd0 = RGB_to_sd_Smits1999(rgb[0])
     got = up(rgb, sd0.wavelengths)
     ref = np.stack([RGB_to_sd_Smits1999(c).values for c in rgb])
@@ -210,12 +211,12 @@ def test_lambert_albedo(tmp_path, below):
     f = b(wi, wo, sd.wavelengths)
     np.testing.assert_allclose(f, np.broadcast_to(sd.values / np.pi, f.shape), rtol=1e-6)
     # grey: Smits' white is flat to 1e-3, so the spectrum is albedo/π within that
-    grey = merl.SmitsUplift()(np.array([[0.5, 0.5, 0.5]]) / np.pi, WL)
+    grey = uplift.SmitsUplift()(np.array([[0.5, 0.5, 0.5]]) / np.pi, WL)
     np.testing.assert_allclose(grey, 0.5 / np.pi, rtol=1e-3)
 
 
 def test_jakob2019_uplift(tmp_path, below):
-    lut = merl.jakob2019_lut(3, tmp_path)  # tiny LUT: ~2 s to generate
+    lut = uplift.jakob2019_lut(3, tmp_path)  # tiny LUT: ~2 s to generate
     assert (tmp_path / "jakob2019_srgb_3.coeff").is_file()
     albedo = np.array([0.6, 0.3, 0.1])
     table = np.where(below[..., None], -1.0, albedo / np.pi)
@@ -228,13 +229,25 @@ def test_jakob2019_uplift(tmp_path, below):
     u = coeffs[0] * wl**2 + coeffs[1] * wl + coeffs[2]
     refl = 0.5 + u / (2 * np.sqrt(1 + u * u))
     np.testing.assert_allclose(f, np.broadcast_to(refl / np.pi, f.shape), rtol=1e-5)
-    up = merl.Jakob2019Uplift(lut)
+    up = uplift.Jakob2019Uplift(lut)
     # brighter than a reflectance: uplifted at unit peak and scaled back
     bright = up(np.array([[6.0, 3.0, 1.0]]) / np.pi, wl)
     np.testing.assert_allclose(bright, 6.0 * up(np.array([[1.0, 0.5, 1 / 6]]) / np.pi, wl),
                                rtol=1e-6)
     assert np.array_equal(up(np.zeros((2, 3)), wl), np.zeros((2, wl.size)))
     assert up(np.zeros((0, 3)), wl).shape == (0, wl.size)
+
+
+def test_moved_uplift_names_still_served_with_a_warning():
+    """The uplift moved to core.colour.uplift (issue 17); merl's old names forward there."""
+    for old, new in (("SmitsUplift", "SmitsUplift"), ("Jakob2019Uplift", "Jakob2019Uplift"),
+                     ("jakob2019_lut", "jakob2019_lut"), ("UPLIFTS", "UPLIFTS"),
+                     ("JAKOB2019_LUT_SIZE", "JAKOB2019_LUT_SIZE"), ("_make_uplift", "make_uplift")):
+        with pytest.warns(DeprecationWarning, match=f"merl.{old} moved to .*uplift.{new}"):
+            assert getattr(merl, old) is getattr(uplift, new)
+    with pytest.raises(AttributeError):
+        merl.no_such_name  # noqa: B018
+    assert isinstance(merl.MERLBRDF(np.zeros((2, 2, 2, 3))).uplift, uplift.SmitsUplift)
 
 
 def test_shapes_and_horizon(brdf):

@@ -10,9 +10,9 @@ import tracemalloc
 import numpy as np
 import pytest
 
+from spectral_materials.core.colour.uplift import SmitsUplift
 from spectral_materials.core.errors import InvalidBRDFData
 from spectral_materials.core.formats import rgl_bsdf
-from spectral_materials.core.formats.merl import SmitsUplift
 
 F32 = np.float32
 WL_FILE = (400.0, 500.0, 600.0, 700.0)

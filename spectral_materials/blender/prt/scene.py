@@ -162,7 +162,7 @@ class EnvironmentData:
         step = max(1, int(np.sqrt(h * w / BASIS_SAMPLES)))
         block = np.clip(self.values[::step, ::step].reshape(-1, self.values.shape[2]), 0, None)
         if self.rgb:
-            from ...core.formats.merl import SmitsUplift
+            from ...core.colour.uplift import SmitsUplift
 
             block = SmitsUplift()(block, WAVELENGTHS)
         # Black pixels carry no spectrum (and would be refused as an illuminant).
@@ -256,7 +256,7 @@ class AlbedoSource:
     def spectra(self) -> np.ndarray:
         if not self.rgb:
             return self.values
-        from ...core.formats.merl import SmitsUplift
+        from ...core.colour.uplift import SmitsUplift
 
         h, w = self.values.shape[:2]
         return SmitsUplift()(self.values.reshape(-1, 3), WAVELENGTHS).reshape(h, w, -1)

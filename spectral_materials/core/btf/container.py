@@ -194,7 +194,7 @@ def reflectance_spectra(values: np.ndarray, wavelengths: np.ndarray | None,
     if wavelengths is not None:
         out = flat @ _interpolation_matrix(np.asarray(wavelengths, np.float64), wl)
     else:
-        from ..formats.merl import SmitsUplift
+        from ..colour.uplift import SmitsUplift
 
         uplift = SmitsUplift()
         out = np.full((len(flat), len(wl)), np.nan)

@@ -104,10 +104,10 @@ import numpy as np
 
 from ..brdf.params import check_direction_pairs
 from ..colour import spectra as _spectra
+from ..colour.uplift import SmitsUplift
 from ..errors import InvalidBRDFData
 from ..sample_limits import WAVELENGTH_LIMITS_NM, describe_extreme
 from ._files import atomic_write, read_errors
-from .merl import SmitsUplift
 
 __all__ = [
     "DTYPE_CODES",

@@ -200,7 +200,7 @@ def albedo_layers_from_rgb(rgb: np.ndarray, wavelengths: np.ndarray,
     linear per ordering of the channels, so the spectra are built texel by texel (in
     blocks) before the CMF weighting.
     """
-    from ..formats.merl import SmitsUplift
+    from ..colour.uplift import SmitsUplift
 
     wl = spectra.check_wavelengths(wavelengths)
     values = _as_image(rgb, 3, "rgb")

@@ -258,7 +258,7 @@ def equirect_environment(values: np.ndarray, wavelengths: np.ndarray | None = No
                          rows_per_chunk: int = 64) -> SpectralEnvironment:
     """Project an equirectangular map: spectra (H, W, L) on ``wavelengths``, or with
     ``rgb=True`` linear Rec.709 radiance (H, W, 3) uplifted with Smits (1999)."""
-    from ..formats.merl import SmitsUplift
+    from ..colour.uplift import SmitsUplift
 
     values = np.asarray(values)
     wl = spectra.WAVELENGTHS_REFERENCE if wavelengths is None else \
@@ -347,7 +347,7 @@ def equirect_reference(values: np.ndarray, wavelengths: np.ndarray | None = None
     over each pixel, so ``∫ L cos θ dω`` over the upper hemisphere is the sum of
     ``L_pixel · Δφ (sin² el_top − sin² el_bottom)/2``.
     """
-    from ..formats.merl import SmitsUplift
+    from ..colour.uplift import SmitsUplift
 
     values = np.asarray(values)
     wl = spectra.WAVELENGTHS_REFERENCE if wavelengths is None else \
