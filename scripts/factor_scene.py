@@ -10,14 +10,14 @@ or with the ``bpy`` module (Python 3.11)::
     python scripts/factor_scene.py scene.blend [options]
 
 Exit status: 0 done, 1 an error (the message names the problem; the file is not
-saved), 2 bad arguments, 130 interrupted (Ctrl-C; nothing stored).
+saved), 2 bad arguments, 130 interrupted (Ctrl-C: the job stops at its next step and stores
+nothing; a second Ctrl-C stops it at once; either way the file is not saved).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
 import time
 from pathlib import Path
@@ -85,27 +85,21 @@ def run(args: argparse.Namespace, inside_blender: bool) -> int:
             return 1
         only = [bpy.data.materials[name] for name in args.materials]
 
-    progress = progress_module.TerminalProgress() if not args.quiet else None
-
-    def interrupt(_signum, _frame):
-        if progress is not None:
-            progress.interrupted = True
-        else:
-            raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGINT, interrupt)
+    progress = progress_module.TerminalProgress(quiet=args.quiet)
     start = time.perf_counter()
     try:
-        result = jobs.factor_scene(scene, progress, only=only, force=args.force,
-                                   factor=not args.basis_only)
+        with progress_module.ctrl_c_cancels(progress):
+            result = jobs.factor_scene(scene, progress, only=only, force=args.force,
+                                       factor=not args.basis_only)
     except core.Cancelled:
         print("\nfactor_scene: interrupted; nothing was stored", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:  # the second Ctrl-C: the job stopped where it was
+        print("\nfactor_scene: interrupted at once; the file was not saved", file=sys.stderr)
         return 130
     except (ValueError, OSError) as exc:
         print(f"\nfactor_scene: error: {exc}", file=sys.stderr)
         return 1
-    finally:
-        signal.signal(signal.SIGINT, previous)
     analysis = result.analysis()
     analysis["file"] = bpy.data.filepath
     analysis["scene"] = scene.name
