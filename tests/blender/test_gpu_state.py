@@ -118,6 +118,7 @@ def test_an_object_recreated_under_an_old_name_draws_its_own_geometry(clean_scen
 
 
 def test_every_cache_is_emptied_by_a_file_load(clean_scene, matte_model, tmp_path):
+    from spectral_materials.blender.brdf import drawer as brdf_drawer
     from spectral_materials.blender.btf import drawer as btf_gpu
     from spectral_materials.blender.gpu import shaders
     from spectral_materials.blender.prt import drawer as prt_gpu
@@ -130,7 +131,7 @@ def test_every_cache_is_emptied_by_a_file_load(clean_scene, matte_model, tmp_pat
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     bpy.ops.wm.open_mainfile(filepath=str(path))
     assert not mesh_batches.cached_objects()
-    assert not draw._MATERIALS and not shaders._CACHE and not prt._CACHE
+    assert not brdf_drawer._MATERIALS and not shaders._CACHE and not prt._CACHE
     assert not prt_gpu._OBJECTS and not btf_gpu._MATERIALS
     # And the reopened scene draws as before.
     assert (_render()[..., 3] > 0.5).mean() > 0.2

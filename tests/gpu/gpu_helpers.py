@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spectral_materials.blender.gpu.offscreen import render_sphere
+from spectral_materials.blender.brdf.sphere import render_sphere
 from spectral_materials.core.brdf import models, shading
 from spectral_materials.core.brdf.factor import factor_brdf
 from spectral_materials.core.colour import pipeline as colour_pipeline

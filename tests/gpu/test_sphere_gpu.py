@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from gpu_helpers import MAX_DE94, PARAMETERIZATIONS, RESOLUTIONS, SIZE, WL, delta_e, protocol_pair
 
-from spectral_materials.blender.gpu.offscreen import render_sphere
+from spectral_materials.blender.brdf.sphere import render_sphere
 from spectral_materials.core.brdf import models, shading
 from spectral_materials.core.brdf.factor import factor_brdf
 

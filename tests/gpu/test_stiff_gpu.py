@@ -25,7 +25,7 @@ from gpu_helpers import (
     spd,
 )
 
-from spectral_materials.blender.gpu.offscreen import render_sphere
+from spectral_materials.blender.brdf.sphere import render_sphere
 from spectral_materials.core.brdf import shading
 from spectral_materials.core.brdf.factored import FactoredBRDF
 from spectral_materials.core.lights import SpectralLight

@@ -5,46 +5,29 @@ one RGBA texel per sample and pack of 4 terms), uploaded as RGBA32F. Float32 is
 required there and in the light texture: factors of glossy lobes exceed half
 float's 65504 and its 11-bit mantissa would cost ~1e-3 relative error per
 factor, compounded over 4 axes and 48 packs. The light texture comes from
-``core.shading.light_texels``.
+``core.brdf.shading.light_texels``; ``gpu.textures`` uploads both.
 """
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...core.brdf.factored import FactoredBRDF
 from ...core.brdf.shading import light_texels
-from ...core.colour import pipeline as colour_pipeline
 from ...core.lights import SpectralLight
-from ..gpu.context import ensure_gpu
-from ..gpu.shaders import ShaderKey
+from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
+from ..gpu.shaders import PARAMETERIZATION_CODES, ShaderKey
+from ..gpu.std140 import glsl_block
+from ..gpu.textures import array_texture, float_texture
 from . import storage
 
-
-def float_texture(texels: np.ndarray):
-    """An RGBA32F texture from (height, width, 4) texels, row 0 first."""
-    import gpu
-
-    ensure_gpu()
-    texels = np.ascontiguousarray(texels, dtype=np.float32)
-    height, width = texels.shape[:2]
-    buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
-    return gpu.types.GPUTexture((width, height), format="RGBA32F", data=buffer)
-
-
-def array_texture(layers: np.ndarray):
-    """An RGBA32F 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA."""
-    import gpu
-
-    ensure_gpu()
-    m, h, w = layers.shape[:3]
-    texels = np.zeros((m, h, w, 4), dtype=np.float32)
-    texels[..., : layers.shape[3]] = layers
-    buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
-    return gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
+# Served from here too (they lived here before the display uniforms and the textures
+# moved down to ``gpu``): scripts and the GLSL tests import them from this module.
+__all__ = ["DisplaySettings", "GPUMaterial", "MaterialUniforms", "PARAMS_BYTES",
+           "array_texture", "check_drawable", "display_matrices", "float_texture",
+           "params_block", "std140_mat4"]
 
 
 @dataclass
@@ -73,20 +56,11 @@ class MaterialUniforms:
         )
 
 
-@dataclass
-class DisplaySettings:
-    """The display pipeline's uniforms: scene white (XYZ), exposure, tone-map white."""
-
-    scene_white: tuple = tuple(colour_pipeline.DISPLAY_WHITE_XYZ)
-    exposure: float = 1.0
-    tone_white: float = 4.0
-
-
 def check_drawable(model: FactoredBRDF) -> None:
     """ValueError naming what the GPU path cannot draw."""
     if model.form != "cp":
         raise ValueError("the GPU path draws CP factor packs; this model is separable")
-    if model.grid.parameterization.name not in ("io", "io_iso", "hd", "hd_iso", "gs", "ea"):
+    if model.grid.parameterization.name not in PARAMETERIZATION_CODES:
         raise ValueError(f"no shader for parameterisation {model.parameterization!r}")
 
 
@@ -145,43 +119,19 @@ class GPUMaterial:
                                                     view_projection, target_size))
 
 
-PARAMS_BYTES = 7 * 16 + 3 * 64
-
-
-@functools.lru_cache(maxsize=16)
-def display_matrices(scene_white: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """std140 mat4s of the display pipeline for a scene white: Bradford (white → D65),
-    XYZ → linear sRGB and its inverse. Cached: every draw of every material asks, and
-    colour-science's Bradford costs a fraction of a millisecond each time."""
-    to_rgb = colour_pipeline.xyz_to_linear_srgb_matrix()
-    out = (std140_mat4(colour_pipeline.bradford_matrix(np.asarray(scene_white))),
-           std140_mat4(to_rgb), std140_mat4(np.linalg.inv(to_rgb)))
-    for matrix in out:
-        matrix.setflags(write=False)
-    return out
-
-
-def std140_mat4(matrix) -> np.ndarray:
-    """A 3 × 3 or 4 × 4 matrix as a std140 mat4 (float32, column-major, padded with the
-    identity)."""
-    m = np.eye(4)
-    a = np.asarray(matrix, dtype=np.float64)
-    m[: a.shape[0], : a.shape[1]] = a
-    return m.T.astype(np.float32)
+#: ``SmParams`` as glsl/brdf/params.glsl declares it: the packer's one spec (gpu/std140.py).
+PARAMS = glsl_block("brdf/params.glsl", "SmParams")
+PARAMS_BYTES = PARAMS.size
 
 
 def params_block(u: MaterialUniforms, display: DisplaySettings, view_origin=(0, 0, 1, 0),
                  view_projection: np.ndarray | None = None, target_size=(0.0, 0.0)) -> bytes:
-    """The std140 bytes of ``SmParams`` (glsl/params.glsl); matrices column-major."""
+    """The std140 bytes of ``SmParams`` (glsl/brdf/params.glsl); matrices column-major."""
     adapt, rgb, _ = display_matrices(tuple(display.scene_white))
     vp = np.eye(4) if view_projection is None else np.asarray(view_projection)
-    parts = [
-        np.asarray(u.axis_lo, np.float32), np.asarray(u.axis_span, np.float32),
-        np.asarray(u.axis_flags, np.int32), np.asarray(u.axis_cells, np.int32),
-        np.asarray((u.edge_clamp, u.pack_rows, 0, 0), np.int32),
-        np.asarray((display.exposure, display.tone_white, *target_size), np.float32),
-        np.asarray(view_origin, np.float32), adapt, rgb, std140_mat4(vp),
-    ]
-    data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
-    assert len(data) == PARAMS_BYTES
-    return data
+    return PARAMS.pack(
+        axis_lo=u.axis_lo, axis_span=u.axis_span, axis_flags=u.axis_flags,
+        axis_cells=u.axis_cells, misc=(u.edge_clamp, u.pack_rows, 0, 0),
+        display=(display.exposure, display.tone_white, *target_size),
+        view_origin=view_origin, adaptation=adapt, xyz_to_rgb=rgb,
+        view_projection=std140_mat4(vp))

@@ -1,13 +1,14 @@
 """Drawing BTF materials: reflectance fields with view interpolation on the GPU.
 
-A material with a stored BTF (``btf_storage``) is drawn by ``glsl/btf_frag.glsl``
+A material with a stored BTF (``btf_storage``) is drawn by ``glsl/btf/btf_frag.glsl``
 through :class:`BTFMaterial`: the records as an RGBA32F 2D-array texture (tiled within
 the GPU's layer and size limits, :class:`~spectral_materials.core.btf.render.TileLayout`),
 the view-lookup tables (cells, candidate lists and triangles of
 :class:`~spectral_materials.core.btf.container.HemisphereTriangulation`) and a light texture with
 the lights' XYZ weights on the material's albedo basis. Textures are rebuilt only when
 the stored BTF changes (its image's name and size and the metadata are the key); the
-light texture when the lights change.
+light texture when the lights change. The drawer registers with the viewport's registry at
+import and claims every material with a stored BTF, ahead of the factor-pack drawer.
 """
 
 from __future__ import annotations
@@ -19,22 +20,22 @@ import numpy as np
 from ...core.btf.container import HemisphereTriangulation
 from ...core.btf.render import DrawableBTF, TileLayout
 from ...core.lights import SpectralLight
-from ..brdf.gpu_material import (
-    DisplaySettings,
-    array_texture,
-    display_matrices,
-    float_texture,
-    std140_mat4,
-)
 from ..gpu import shaders
 from ..gpu.context import ensure_gpu
-from ..gpu.shaders import MAX_LIGHTS, OUTPUTS, glsl_source, light_type_bits
+from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
+from ..gpu.outputs import BTF_REQUESTS, output_defines
+from ..gpu.shaders import MAX_LIGHTS, glsl_source, light_type_bits
+from ..gpu.std140 import glsl_block
+from ..gpu.textures import array_texture, float_texture
+from ..viewport import registry
 from . import storage as btf_storage
 
-PARAMS_BYTES = 3 * 64 + 3 * 16 + 2 * 16
+#: ``SmBtfParams`` as glsl/btf/btf_params.glsl declares it: the packer's one spec.
+PARAMS = glsl_block("btf/btf_params.glsl", "SmBtfParams")
+PARAMS_BYTES = PARAMS.size
 KIND_CODES = {"RFP": 0, "RFNL": 1}
-FRAGMENT_LIBRARY = ("common.glsl", "lights.glsl", "frame.glsl", "colour_pipeline.glsl",
-                    "btf_views.glsl", "btf_frag.glsl")
+FRAGMENT_LIBRARY = ("common/common.glsl", "common/lights.glsl", "common/frame.glsl",
+                    "common/colour_pipeline.glsl", "btf/btf_views.glsl", "btf/btf_frag.glsl")
 
 _MATERIALS: dict[str, BTFMaterial] = {}
 #: BTF materials that could not be drawn: name → reason.
@@ -57,7 +58,7 @@ class BTFShaderKey:
                 "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
                 "SM_LIGHTS": str(self.lights),
                 "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
-                "SM_OUTPUT": str(OUTPUTS[self.output])}
+                **output_defines(BTF_REQUESTS[self.output])}
 
     def validate(self) -> None:
         if self.kind not in KIND_CODES:
@@ -65,7 +66,7 @@ class BTFShaderKey:
         if not 1 <= self.lights <= MAX_LIGHTS:
             raise ValueError(f"{self.lights} lights reach the scene; the BTF shader draws "
                              f"1..{MAX_LIGHTS}: hide or disable some lights")
-        if self.output not in OUTPUTS:
+        if self.output not in BTF_REQUESTS:
             raise ValueError(f"unknown output {self.output!r}")
 
 
@@ -76,7 +77,7 @@ def create_info(key: BTFShaderKey):
     info = gpu.types.GPUShaderCreateInfo()
     for name, value in key.defines().items():
         info.define(name, value)
-    info.typedef_source(glsl_source("btf_params.glsl"))
+    info.typedef_source(glsl_source("btf/btf_params.glsl"))
     info.uniform_buf(0, "SmBtfParams", "sm")
     info.sampler(0, "FLOAT_2D_ARRAY", "record_tex")
     info.sampler(1, "FLOAT_2D", "cell_tex")
@@ -94,7 +95,7 @@ def create_info(key: BTFShaderKey):
         interface.smooth("VEC3", name)
     interface.smooth("VEC2", "tex_uv")
     info.vertex_out(interface)
-    info.vertex_source(glsl_source("btf_vert.glsl"))
+    info.vertex_source(glsl_source("btf/btf_vert.glsl"))
     info.fragment_out(0, "VEC4", "frag_colour")
     info.fragment_source("\n".join(glsl_source(n) for n in FRAGMENT_LIBRARY))
     return info
@@ -150,22 +151,24 @@ class BTFMaterial:
             self._light_texture = (lights_key, texture)
         return texture
 
+    def params_block(self, display: DisplaySettings, view_origin,
+                     view_projection: np.ndarray) -> bytes:
+        """The std140 bytes of ``SmBtfParams`` (glsl/btf/btf_params.glsl)."""
+        adapt, to_rgb, _ = display_matrices(tuple(display.scene_white))
+        lay = self.layout
+        return PARAMS.pack(
+            view_projection=std140_mat4(view_projection), adaptation=adapt,
+            xyz_to_rgb=to_rgb, display=(display.exposure, display.tone_white, 0.0, 0.0),
+            view_origin=view_origin, uv_scale=(*self.uv_scale, 0.0, 0.0),
+            tiles=(lay.width, lay.height, lay.tiles_per_layer, lay.columns),
+            counts=(self.drawable.albedo_records, self.drawable.records_per_view,
+                    self.grid, 0))
+
     def params(self, display: DisplaySettings, view_origin, view_projection: np.ndarray):
         import gpu
 
-        adapt, to_rgb, _ = display_matrices(tuple(display.scene_white))
-        lay = self.layout
-        parts = [std140_mat4(view_projection), adapt, to_rgb,
-                 np.asarray((display.exposure, display.tone_white, 0.0, 0.0), np.float32),
-                 np.asarray(view_origin, np.float32),
-                 np.asarray((*self.uv_scale, 0.0, 0.0), np.float32),
-                 np.asarray((lay.width, lay.height, lay.tiles_per_layer, lay.columns),
-                            np.int32),
-                 np.asarray((self.drawable.albedo_records, self.drawable.records_per_view,
-                             self.grid, 0), np.int32)]
-        data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
-        assert len(data) == PARAMS_BYTES
-        return gpu.types.GPUUniformBuf(data)
+        return gpu.types.GPUUniformBuf(self.params_block(display, view_origin,
+                                                         view_projection))
 
     def bind(self, shader, light_texture, params) -> None:
         shader.bind()
@@ -207,6 +210,22 @@ def btf_material(material) -> BTFMaterial | None:
     return resource
 
 
+def bind(resource: BTFMaterial, frame: registry.DrawFrame) -> registry.BoundSlot:
+    """Bind the BTF variant of ``resource`` for one draw."""
+    key = resource.key(frame.lights, output=frame.output)
+    shader = get_shader(key)
+    # Held until the draw: a freed uniform buffer leaves the block unbound.
+    params = resource.params(frame.display, frame.view.uniform(), frame.view_projection)
+    resource.bind(shader, resource.light_texture(frame.lights, frame.lights_key), params)
+    return registry.BoundSlot(key, shader, params)
+
+
 def clear_cache() -> None:
     _MATERIALS.clear()
     FAILED.clear()
+
+
+DRAWER = registry.MaterialDrawer(
+    name="BTF", order=10, claims=btf_storage.has_btf, resource=btf_material, bind=bind,
+    clear_cache=clear_cache, failures=lambda: FAILED)
+registry.register(DRAWER)

@@ -17,6 +17,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .mesh_arrays import (
+    check_finite,
+    corner_normals,
+    corner_uvs,
+    corner_vertices,
+    evaluated_mesh,
+    loop_triangles,
+    triangle_slots,
+    vertex_positions,
+)
+
 _CACHE: dict[str, tuple] = {}
 _SERIAL: dict[str, int] = {}
 
@@ -38,48 +49,41 @@ class MeshArrays:
                    + self.uvs.nbytes + sum(t.nbytes for t in self.triangles.values()))
 
 
+def _tangents(mesh) -> np.ndarray | None:
+    """(C, 4) tangents of the active UV map (xyz, bitangent sign), or None where Blender
+    cannot compute them (no UV map, n-gons without a tangent space)."""
+    if mesh.uv_layers.active is None or not len(mesh.loops):
+        return None
+    try:
+        mesh.calc_tangents(uvmap=mesh.uv_layers.active.name)
+    except RuntimeError:
+        return None     # the generated field is used
+    corners = len(mesh.loops)
+    t = np.empty(corners * 3, dtype=np.float32)
+    sign = np.empty(corners, dtype=np.float32)
+    mesh.loops.foreach_get("tangent", t)
+    mesh.loops.foreach_get("bitangent_sign", sign)
+    mesh.free_tangents()
+    tangents = np.empty((corners, 4), dtype=np.float32)
+    tangents[:, :3] = t.reshape(-1, 3)
+    tangents[:, 3] = sign
+    return tangents
+
+
 def mesh_arrays(mesh) -> MeshArrays:
     """Read a (evaluated) mesh's corners and loop triangles into arrays."""
-    mesh.calc_loop_triangles()
-    corners = len(mesh.loops)
-    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.vertices.foreach_get("co", co)
-    vertex_index = np.empty(corners, dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", vertex_index)
-    positions = co.reshape(-1, 3)[vertex_index]
-    normals = np.empty(corners * 3, dtype=np.float32)
-    mesh.corner_normals.foreach_get("vector", normals)
-    tangents = np.zeros((corners, 4), dtype=np.float32)
-    uvs = np.zeros((corners, 2), dtype=np.float32)
-    has_tangents = False
-    if mesh.uv_layers.active is not None and corners:
-        mesh.uv_layers.active.uv.foreach_get("vector", uvs.ravel())
-    if mesh.uv_layers.active is not None and corners:
-        try:
-            mesh.calc_tangents(uvmap=mesh.uv_layers.active.name)
-        except RuntimeError:
-            pass        # n-gons without a tangent space: the generated field is used
-        else:
-            t = np.empty(corners * 3, dtype=np.float32)
-            sign = np.empty(corners, dtype=np.float32)
-            mesh.loops.foreach_get("tangent", t)
-            mesh.loops.foreach_get("bitangent_sign", sign)
-            tangents[:, :3] = t.reshape(-1, 3)
-            tangents[:, 3] = sign
-            has_tangents = True
-            mesh.free_tangents()
-    count = len(mesh.loop_triangles)
-    loops = np.empty(count * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    slots = np.empty(count, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("material_index", slots)
-    loops = loops.reshape(-1, 3)
+    loops = loop_triangles(mesh)
+    slots = triangle_slots(mesh)
+    positions = np.ascontiguousarray(vertex_positions(mesh)[corner_vertices(mesh)])
+    normals = corner_normals(mesh)
+    check_finite(mesh, positions, normals)
+    uvs = corner_uvs(mesh)
+    tangents = _tangents(mesh)
+    has_tangents = tangents is not None
+    if tangents is None:
+        tangents = np.zeros((len(mesh.loops), 4), dtype=np.float32)
     triangles = {int(s): np.ascontiguousarray(loops[slots == s]) for s in np.unique(slots)}
-    finite = np.isfinite(positions).all() and np.isfinite(normals).all()
-    if not finite:
-        raise ValueError(f"mesh '{mesh.name}' has non-finite vertex positions or normals")
-    return MeshArrays(np.ascontiguousarray(positions), normals.reshape(-1, 3), tangents,
-                      uvs, triangles, has_tangents)
+    return MeshArrays(positions, normals, tangents, uvs, triangles, has_tangents)
 
 
 VERTEX_ATTRIBUTES = (("position", 3), ("normal", 3), ("tangent", 4), ("uv", 2))
@@ -118,14 +122,10 @@ def object_batches(obj, depsgraph) -> MeshBatches | None:
     cached = _CACHE.get(obj.name)
     if cached is not None and cached[0] == key:
         return cached[1]
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
+    with evaluated_mesh(obj, depsgraph) as mesh:
         if mesh is None:
             return None
         batches = MeshBatches.build(mesh_arrays(mesh))
-    finally:
-        evaluated.to_mesh_clear()
     _CACHE[obj.name] = (key, batches)
     return batches
 

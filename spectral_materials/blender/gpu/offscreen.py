@@ -1,24 +1,27 @@
 """Offscreen drawing into RGBA32F and read-back into NumPy.
 
-:func:`render_sphere` draws the protocol sphere (shared/PROTOCOL.md) through the
-same shaders as the viewport; ``draw.render_view`` draws a scene from a camera.
+:class:`Target` is the offscreen every image is drawn into: the protocol sphere
+(``brdf.sphere.render_sphere``) and a scene from its camera
+(``viewport.draw.render_camera``).
 Images are (height, width, 4) float32 with row 0 at the bottom (OpenGL order).
+
+Until the next release ``offscreen.render_sphere`` still imports, with a DeprecationWarning:
+it moved to the factor-pack package, which this lower layer must not import.
 """
 
 from __future__ import annotations
 
+import importlib
+import warnings
+
 import numpy as np
 
-from ...core.brdf.factored import FactoredBRDF
-from ...core.brdf.shading import protocol_sun
-from ...core.lights import SpectralLight
-from ..brdf.gpu_material import DisplaySettings, GPUMaterial
 from .context import ensure_gpu
-from .shaders import get_shader
 from .state import spectral_draw_state
 
 MAX_SIZE = 8192
-_QUAD = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]], dtype=np.float32)
+#: Names that left this module: name → (module relative to this package's parent).
+_MOVED = {"render_sphere": "brdf.sphere"}
 
 
 def check_size(width: int, height: int) -> None:
@@ -68,30 +71,12 @@ class Target:
         self.offscreen.free()
 
 
-def render_sphere(model: FactoredBRDF, incidence_deg: float = 0.0,
-                  illuminant: str | np.ndarray = "D65", size: int = 256, *,
-                  lights: list[SpectralLight] | None = None, output: str = "XYZ",
-                  packs: int | None = None, precontract: bool = True,
-                  display: DisplaySettings | None = None) -> np.ndarray:
-    """The protocol sphere drawn on the GPU: (size, size, 4) float32, row 0 at the bottom.
-
-    XYZ output is linear CIE XYZ, protocol-normalised; alpha is 1 on the sphere and 0
-    off it. ``lights`` replaces the protocol's sun at ``incidence_deg``. ``packs`` draws
-    the model's first packs (``FactoredBRDF.truncated``).
-    """
-    from gpu_extras.batch import batch_for_shader
-
-    if lights is None:
-        lights = [protocol_sun(incidence_deg, illuminant, model.wavelengths)]
-    if packs is not None:
-        model = model.truncated(packs)
-    material = GPUMaterial(model)
-    shader = get_shader(material.key(lights, precontract=precontract, output=output,
-                                     sphere=True))
-    batch = batch_for_shader(shader, "TRI_STRIP", {"corner": _QUAD})
-    light_texture = material.light_texture(lights, precontract)
-    with Target(size, size) as target:
-        params = material.params(display or DisplaySettings(), target_size=(size, size))
-        material.bind(shader, light_texture, params)
-        batch.draw(shader)
-        return target.read()
+def __getattr__(name: str):
+    if name not in _MOVED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    parent = __name__.rpartition(".")[0].rpartition(".")[0]
+    new = f"{parent}.{_MOVED[name]}"
+    warnings.warn(f"{__name__}.{name} moved to {new}.{name}; the old path goes in the next "
+                  "release", DeprecationWarning, stacklevel=2)
+    # By name, not an import statement: the forward is no dependency of this layer.
+    return getattr(importlib.import_module(new), name)

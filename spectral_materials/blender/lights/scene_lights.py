@@ -7,9 +7,9 @@ import numpy as np
 from ...core.colour import pipeline as colour_pipeline
 from ...core.colour import spectra
 from ...core.lights import SpectralLight
-from ..brdf import sources
-from ..brdf.gpu_material import DisplaySettings
-from ..brdf.scene import scene_lights
+from ..gpu.display import DisplaySettings
+from .spd import WAVELENGTHS, SourceError, light_spd
+from .visibility import scene_lights
 
 DRAWN_TYPES = {"SUN", "POINT", "SPOT", "AREA"}
 
@@ -19,16 +19,16 @@ def spectral_light(obj) -> SpectralLight:
     colour), strength = Blender energy × Spectral Power."""
     light = obj.data
     if light.type not in DRAWN_TYPES:
-        raise sources.SourceError(f"Light '{obj.name}': type {light.type} is not drawn")
+        raise SourceError(f"Light '{obj.name}': type {light.type} is not drawn")
     matrix = np.array(obj.matrix_world)
     axis = -matrix[:3, 2]
     if not np.linalg.norm(axis) > 0:
-        raise sources.SourceError(f"Light '{obj.name}': its transform has zero scale")
+        raise SourceError(f"Light '{obj.name}': its transform has zero scale")
     kwargs = {}
     if light.type == "SPOT":
         kwargs = {"spot_size": float(light.spot_size), "spot_blend": float(light.spot_blend)}
     # The SPD sets the colour only (it is normalised); Spectral Power scales the energy.
-    return SpectralLight(light.type, sources.light_spd(light), sources.WAVELENGTHS,
+    return SpectralLight(light.type, light_spd(light), WAVELENGTHS,
                          strength=float(light.energy) * float(light.spectral.power),
                          position=tuple(matrix[:3, 3]),
                          axis=tuple(axis), name=obj.name, **kwargs)
@@ -37,8 +37,8 @@ def spectral_light(obj) -> SpectralLight:
 def headlight(scene, toward_viewer: np.ndarray) -> SpectralLight:
     """With no light in the scene: a sun from the viewer in the adaptation white."""
     name = scene.spectral.adaptation_white
-    return SpectralLight("SUN", spectra.illuminant(name, sources.WAVELENGTHS),
-                         sources.WAVELENGTHS, strength=1.0,
+    return SpectralLight("SUN", spectra.illuminant(name, WAVELENGTHS),
+                         WAVELENGTHS, strength=1.0,
                          axis=tuple(-np.asarray(toward_viewer, dtype=np.float64)),
                          name=f"{name} headlight")
 
@@ -61,7 +61,7 @@ def drawn_lights(scene, toward_viewer=(0.0, 0.0, 1.0)) -> tuple[list[SpectralLig
 def display_settings(scene) -> DisplaySettings:
     """Adaptation white, exposure (Blender's Film exposure, in stops) and tone map."""
     s = scene.spectral
-    white = colour_pipeline.white_xyz(s.adaptation_white, sources.WAVELENGTHS)
+    white = colour_pipeline.white_xyz(s.adaptation_white, WAVELENGTHS)
     tone_white = float(s.tone_white) if s.tone_mapping == "SIGMOID" else 0.0
     return DisplaySettings(scene_white=tuple(white),
                            exposure=float(2.0 ** scene.view_settings.exposure),

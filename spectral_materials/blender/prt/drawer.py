@@ -1,7 +1,7 @@
 """Drawing PRT objects: the spectral PRT paper's two dot products on the GPU.
 
-The vertex stage (glsl/prt_vert.glsl) computes Ê = T̃ · L̃ per vertex, the fragment stage
-(glsl/prt_frag.glsl) XYZ = Σ_j Ê_j R̃_j(uv). The PRT shader variants are separate from
+The vertex stage (glsl/prt/prt_vert.glsl) computes Ê = T̃ · L̃ per vertex, the fragment stage
+(glsl/prt/prt_frag.glsl) XYZ = Σ_j Ê_j R̃_j(uv). The PRT shader variants are separate from
 the factor-pack shaders and are compiled only when a scene has PRT objects.
 
 Per object, on the GPU: a batch of mesh corners (position, UV, vertex index), the
@@ -24,24 +24,34 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.prt import transfer as core_prt
-from ..brdf.gpu_material import (
-    DisplaySettings,
-    array_texture,
-    display_matrices,
-    float_texture,
-    std140_mat4,
-)
 from ..gpu import batches as mesh_batches
 from ..gpu import shaders
-from ..gpu.shaders import OUTPUTS, glsl_source
+from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
+from ..gpu.matrices import set_matrix
+from ..gpu.mesh_arrays import (
+    check_finite,
+    corner_uvs,
+    corner_vertices,
+    evaluated_mesh,
+    loop_triangles,
+    vertex_positions,
+)
+from ..gpu.outputs import PRT_REQUESTS, output_defines
+from ..gpu.shaders import glsl_source
+from ..gpu.std140 import glsl_block
+from ..gpu.textures import array_texture, float_texture
+from ..viewport import registry
 from . import bake
 from . import scene as prt
 
 TRANSFER_WIDTH = 4096
 #: Spectral coefficients the varyings carry (4 vec4).
 MAX_COEFFICIENTS = 16
-PRT_OUTPUTS = dict(OUTPUTS, PRIMITIVE=6)
-PARAMS_BYTES = 4 * 64 + 2 * 16
+#: The output requests the PRT shader answers (blender/gpu/outputs.py).
+PRT_OUTPUTS = PRT_REQUESTS
+#: ``SmPrtParams`` as glsl/prt/prt_params.glsl declares it: the packer's one spec.
+PARAMS = glsl_block("prt/prt_params.glsl", "SmPrtParams")
+PARAMS_BYTES = PARAMS.size
 
 _OBJECTS: dict[str, dict] = {}
 #: PRT objects that could not be drawn: name → reason (shown in the panel).
@@ -66,7 +76,7 @@ class PRTShaderKey:
     def defines(self) -> dict[str, str]:
         return {"SM_PRT_TEXELS": str(self.texels), "SM_PRT_COEFFS": str(self.coefficients),
                 "SM_PRT_VEC4": str(self.vec4s), "SM_PRT_RGB": "1" if self.rgb else "0",
-                "SM_OUTPUT": str(PRT_OUTPUTS[self.output])}
+                **output_defines(PRT_OUTPUTS[self.output])}
 
     def validate(self) -> None:
         if not 1 <= self.coefficients <= MAX_COEFFICIENTS:
@@ -83,7 +93,7 @@ def create_info(key: PRTShaderKey):
     info = gpu.types.GPUShaderCreateInfo()
     for name, value in key.defines().items():
         info.define(name, value)
-    info.typedef_source(glsl_source("prt_params.glsl"))
+    info.typedef_source(glsl_source("prt/prt_params.glsl"))
     info.uniform_buf(0, "SmPrtParams", "sm")
     info.sampler(0, "FLOAT_2D", "transfer_tex")
     info.sampler(1, "FLOAT_2D", "environment_tex")
@@ -98,10 +108,10 @@ def create_info(key: PRTShaderKey):
     interface.smooth("VEC3", "world_position")
     interface.smooth("VEC2", "tex_uv")
     info.vertex_out(interface)
-    info.vertex_source(glsl_source("prt_vert.glsl"))
+    info.vertex_source(glsl_source("prt/prt_vert.glsl"))
     info.fragment_out(0, "VEC4", "frag_colour")
-    info.fragment_source(glsl_source("colour_pipeline.glsl") + "\n" +
-                         glsl_source("prt_frag.glsl"))
+    info.fragment_source(glsl_source("common/colour_pipeline.glsl") + "\n" +
+                         glsl_source("prt/prt_frag.glsl"))
     return info
 
 
@@ -112,14 +122,12 @@ def get_shader(key: PRTShaderKey):
 
 def params_block(view_projection: np.ndarray, display: DisplaySettings,
                  transfer_width: int, albedo_size: tuple[int, int]) -> bytes:
-    """The std140 bytes of ``SmPrtParams`` (glsl/prt_params.glsl), matrices column-major."""
+    """The std140 bytes of ``SmPrtParams`` (glsl/prt/prt_params.glsl), matrices column-major."""
     adapt, to_rgb, to_xyz = display_matrices(tuple(display.scene_white))
-    parts = [std140_mat4(view_projection), adapt, to_rgb, to_xyz,
-             np.asarray((display.exposure, display.tone_white, 0.0, 0.0), np.float32),
-             np.asarray((transfer_width, albedo_size[0], albedo_size[1], 0), np.int32)]
-    data = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
-    assert len(data) == PARAMS_BYTES
-    return data
+    return PARAMS.pack(
+        view_projection=std140_mat4(view_projection), adaptation=adapt, xyz_to_rgb=to_rgb,
+        rgb_to_xyz=to_xyz, display=(display.exposure, display.tone_white, 0.0, 0.0),
+        sizes=(transfer_width, albedo_size[0], albedo_size[1], 0))
 
 
 # ----------------------------------------------------------------------- object data
@@ -147,25 +155,21 @@ def prt_mesh_arrays(obj, mesh) -> PRTMeshArrays:
         raise prt.PRTError(f"Object '{obj.name}' has no current PRT transfer: bake it")
     if len(mesh.vertices) >= 1 << 24:
         raise prt.PRTError(f"Object '{obj.name}': PRT draws meshes below 2²⁴ vertices")
-    mesh.calc_loop_triangles()
-    corners = len(mesh.loops)
-    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.vertices.foreach_get("co", co)
-    index = np.empty(corners, dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", index)
-    uvs = np.zeros(corners * 2, dtype=np.float32)
-    if mesh.uv_layers.active is not None and corners:
-        mesh.uv_layers.active.uv.foreach_get("vector", uvs)
-    tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("loops", tris)
+    tris = loop_triangles(mesh)
+    co = vertex_positions(mesh)
+    try:
+        check_finite(mesh, co)
+    except ValueError as exc:
+        raise prt.PRTError(f"Object '{obj.name}': {exc}") from None
+    index = corner_vertices(mesh)
+    uvs = corner_uvs(mesh)
     # Corners that share a vertex and a UV are one GPU vertex: the vertex stage's T̃ · L̃
     # then runs about once per mesh vertex instead of once per corner (≈ 4× on quads).
-    uvs = uvs.reshape(-1, 2)
     keys = np.concatenate([index[:, None].view(np.float32), uvs], axis=1)
     unique, first, inverse = np.unique(keys.view(np.dtype((np.void, 12))).ravel(),
                                        return_index=True, return_inverse=True)
     del unique
-    positions = co.reshape(-1, 3)[index[first]]
+    positions = co[index[first]]
     return PRTMeshArrays(np.ascontiguousarray(positions), np.ascontiguousarray(uvs[first]),
                          index[first].astype(np.float32),
                          inverse.astype(np.int32)[tris].reshape(-1, 3), transfer)
@@ -202,12 +206,8 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
     entry = _OBJECTS.setdefault(obj.name, {})
     mesh_key = (obj.data.name, mesh_batches.serial(obj.name))
     if entry.get("mesh_key") != mesh_key:
-        evaluated = obj.evaluated_get(depsgraph)
-        mesh = evaluated.to_mesh()
-        try:
+        with evaluated_mesh(obj, depsgraph) as mesh:
             arrays = prt_mesh_arrays(obj, mesh)
-        finally:
-            evaluated.to_mesh_clear()
         fmt = gpu.types.GPUVertFormat()
         fmt.attr_add(id="position", comp_type="F32", len=3, fetch_mode="FLOAT")
         fmt.attr_add(id="uv", comp_type="F32", len=2, fetch_mode="FLOAT")
@@ -256,9 +256,6 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
     """Draw the scene's PRT objects into the bound framebuffer; returns their names."""
     import gpu
 
-    # draw imports this module
-    from ..viewport.draw import set_matrix
-
     objects = prt.prt_objects(scene) if objects is None else objects
     if not objects:
         return []
@@ -289,6 +286,21 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
     return drawn
 
 
+def _draw_registered(scene, depsgraph, objects: list, frame: registry.DrawFrame) -> list[str]:
+    """The viewport's call: the frame's output where PRT has it, else XYZ."""
+    output = frame.output if frame.output in PRT_OUTPUTS else "XYZ"
+    return draw_prt_objects(scene, depsgraph, frame.view_projection, output=output,
+                            display=frame.display, objects=objects)
+
+
 def clear_cache() -> None:
+    """The GPU resources and the scene's derived PRT data (environment, basis, layers)."""
     _OBJECTS.clear()
     FAILED.clear()
+    prt.clear_cache()
+
+
+DRAWER = registry.ObjectDrawer(
+    name="PRT", order=50, objects=prt.prt_objects, draw=_draw_registered,
+    clear_cache=clear_cache, failures=lambda: FAILED)
+registry.register(DRAWER)

@@ -35,7 +35,7 @@ from ...core.prt import environment as core_environment
 from ...core.prt import sh
 from ...core.prt import transfer as core_prt
 from ..brdf import sources, storage
-from ..brdf.scene import _renders
+from ..lights.visibility import renders as _renders
 from . import bake
 
 WAVELENGTHS = sources.WAVELENGTHS

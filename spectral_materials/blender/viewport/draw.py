@@ -1,21 +1,23 @@
-"""Drawing factored materials: the viewport draw handler and offscreen scene renders.
+"""The viewport draw handler and offscreen scene renders, over the registered drawers.
 
-:func:`draw_objects` draws every visible object whose material slots hold stored
-factor packs, through the shader variant each material needs (``shaders.py``),
-with the scene's lights (``scene_lights.py``). Other geometry is drawn into the
-depth buffer only, so that it hides what is behind it. The viewport draw handler
-(``SpaceView3D``, ``POST_VIEW``, depth-tested against Blender's own drawing) and
-:func:`render_camera` (an RGBA32F offscreen from the scene camera) both call it.
+:func:`draw_objects` draws every visible object through the drawers the capabilities
+registered (:mod:`.registry`): object drawers take whole objects (PRT), material drawers
+the slots whose material they claim (BTF, factor packs), with the scene's lights
+(``lights.scene_lights``). Geometry no drawer shades is drawn into the depth buffer only,
+so that it hides what is behind it. The viewport draw handler (``SpaceView3D``,
+``POST_VIEW``, depth-tested against Blender's own drawing) and :func:`render_camera` (an
+RGBA32F offscreen from the scene camera) both call it. This module imports no drawer.
 
-Caches: shader variants (``shaders``), batches per object (``mesh_batches``,
-rebuilt when geometry changes), and factor textures per material (rebuilt when
-its stored factors change). :func:`reset` drops them all; it runs on file load
-and on unregister, which also remove the handler.
+Caches: shader variants (``gpu.shaders``), batches per object (``gpu.batches``, rebuilt
+when geometry changes) and each drawer's own. :func:`reset` drops them all; it runs on
+file load and on unregister, which also remove the handler.
 """
 
 from __future__ import annotations
 
 import atexit
+import importlib
+import warnings
 from dataclasses import dataclass, field
 
 import bpy
@@ -23,29 +25,31 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ...core.brdf.shading import View
-from ..brdf import storage
-from ..brdf.gpu_material import DisplaySettings, GPUMaterial
-from ..brdf.scene import GEOMETRY_TYPES, _renders
-from ..btf import drawer as btf_gpu
-from ..btf import storage as btf_storage
 from ..gpu import batches as mesh_batches
 from ..gpu import shaders
+from ..gpu.display import DisplaySettings
+from ..gpu.matrices import normal_matrix, set_matrix
 from ..gpu.offscreen import Target
 from ..gpu.state import spectral_draw_state
 from ..lights import scene_lights
-from ..prt import drawer as prt_gpu
-from ..prt import scene as prt
+from ..lights.visibility import GEOMETRY_TYPES, renders
+from . import registry
+from .occluders import clear_cache as _clear_occluder_shader
+from .occluders import draw_occluders
+from .registry import DrawFrame
 
-_MATERIALS: dict[str, tuple] = {}
+__all__ = ["DrawStats", "camera_view", "disable_viewport", "draw_objects", "drawable_objects",
+           "enable_viewport", "failed_materials", "redraw_viewports", "register",
+           "render_camera", "reset", "set_matrix", "unregister", "viewport_enabled",
+           "viewport_summary"]
+
 _HANDLE = None
-_OCCLUDER_SHADER = None
-#: Materials that failed to draw: name → (factor key, reason); shown in the panel and
-#: not retried until their factors change.
-FAILED: dict[str, tuple] = {}
 #: Why the last viewport draw stopped (e.g. a light with an unusable SPD), or "".
 VIEWPORT_ERROR = ""
 #: What the last viewport draw drew (shown in the panel).
 LAST_STATS = None
+#: Names that left this module for a drawer: name → module relative to ``blender``.
+_MOVED = {"gpu_material": "brdf.drawer", "FAILED": "brdf.drawer", "_MATERIALS": "brdf.drawer"}
 
 
 @dataclass
@@ -58,7 +62,8 @@ class DrawStats:
     triangles: int = 0
     texture_bytes: int = 0
     vertex_bytes: int = 0
-    prt_objects: list[str] = field(default_factory=list)
+    #: Objects each object drawer drew whole: drawer name → object names.
+    drawn_whole: dict[str, list[str]] = field(default_factory=dict)
 
 
 def viewport_summary() -> str:
@@ -72,148 +77,57 @@ def viewport_summary() -> str:
 
 
 def failed_materials() -> list[tuple[str, str]]:
-    """(what, reason) for materials the draw path refused and a stopped viewport draw."""
-    out = [(name, reason) for name, (_, reason) in sorted(FAILED.items())]
-    out += sorted(prt_gpu.FAILED.items()) + sorted(btf_gpu.FAILED.items())
+    """(what, reason) for what the drawers refused and a stopped viewport draw."""
+    out = registry.failures()
     return out + ([("Viewport", VIEWPORT_ERROR)] if VIEWPORT_ERROR else [])
 
 
-def _material_key(material) -> tuple | None:
-    result = material.spectral.result
-    if not material.spectral.enabled or result.image is None:
-        return None
-    return (result.image.name, result.input_hash, result.terms, result.spectral_size,
-            result.image.size[0], result.image.size[1])
-
-
-def gpu_material(material) -> GPUMaterial | None:
-    """The cached :class:`GPUMaterial` of a material with stored factors (else None)."""
-    key = _material_key(material)
-    if key is None:
-        return None
-    cached = _MATERIALS.get(material.name)
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    if FAILED.get(material.name, (None,))[0] == key:
-        return None
-    try:
-        resource = GPUMaterial(storage.load_factored(material))
-    except ValueError as exc:
-        FAILED[material.name] = (key, str(exc))
-        print(f"Spectral Materials: not drawing '{material.name}': {exc}")
-        return None
-    _MATERIALS[material.name] = (key, resource)
-    return resource
-
-
-def _resource(material):
-    """What draws ``material``: its factor packs, its BTF, or None (an occluder)."""
-    if btf_storage.has_btf(material):
-        return btf_gpu.btf_material(material)
-    return gpu_material(material)
-
-
-def _occluder_shader():
-    global _OCCLUDER_SHADER
-    if _OCCLUDER_SHADER is None:
-        import gpu
-
-        info = gpu.types.GPUShaderCreateInfo()
-        info.push_constant("MAT4", "mvp")
-        info.vertex_in(0, "VEC3", "position")
-        info.fragment_out(0, "VEC4", "frag_colour")
-        info.vertex_source("void main() { gl_Position = mvp * vec4(position, 1.0); }")
-        info.fragment_source("void main() { frag_colour = vec4(0.0); }")
-        _OCCLUDER_SHADER = gpu.shader.create_from_info(info)
-    return _OCCLUDER_SHADER
-
-
-def _column_major(matrix) -> list[float]:
-    return [float(v) for v in np.asarray(matrix, dtype=np.float64).T.ravel()]
-
-
-def set_matrix(shader, name: str, matrix) -> None:
-    """Set a mat4 push constant; variants that do not read it have optimised it away."""
-    try:
-        shader.uniform_float(name, _column_major(matrix))
-    except ValueError as exc:
-        if "not found" not in str(exc):
-            raise
-
-
 def drawable_objects(scene, view_layer=None) -> list:
+    """The scene's visible, renderable objects with geometry."""
     view_layer = view_layer or scene.view_layers[0]
     return [o for o in scene.objects
-            if o.type in GEOMETRY_TYPES and _renders(o, view_layer)]
+            if o.type in GEOMETRY_TYPES and renders(o, view_layer)]
 
 
-def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
-                 output: str = "DISPLAY", display: DisplaySettings | None = None,
-                 lights: tuple | None = None, occluders: bool = True,
-                 only: set[str] | None = None) -> DrawStats:
-    """Draw the scene's factored materials into the bound framebuffer (depth test on).
+def _slot_resource(material, only: set[str] | None):
+    """(drawer, resource) drawing ``material``, or None: an occluder."""
+    if material is None or (only is not None and material.name not in only):
+        return None
+    drawer = registry.claiming_drawer(material)
+    resource = drawer.resource(material) if drawer is not None else None
+    return None if resource is None else (drawer, resource)
 
-    ``only`` names the materials to shade; the others are then drawn as occluders.
-    """
-    import gpu
 
-    stats = DrawStats()
-    toward_viewer = np.asarray(view.origin, dtype=np.float64)
-    light_list, lights_key = lights or scene_lights.drawn_lights(scene, toward_viewer)
-    display = display or scene_lights.display_settings(scene)
-    vp = np.asarray(view_projection, dtype=np.float64)
-    work = []                     # (object, batches, {slot: GPUMaterial or None})
-    prt_objects = prt.prt_objects(scene) if only is None else []
+def _slot_work(scene, depsgraph, taken: list, only, occluders_too: bool) -> list:
+    """(object, batches, {slot: (drawer, resource) or None}) of the objects drawn by slot."""
+    work = []
     for obj in drawable_objects(scene):
-        if obj in prt_objects:
-            continue            # drawn below, by the PRT shaders
-        slots = {i: _resource(s.material)
-                 if s.material is not None and (only is None or s.material.name in only)
-                 else None for i, s in enumerate(obj.material_slots)}
-        if not occluders and not any(r is not None for r in slots.values()):
+        if obj in taken:
+            continue            # drawn whole, by its object drawer
+        slots = {i: _slot_resource(s.material, only) for i, s in enumerate(obj.material_slots)}
+        if not occluders_too and not any(r is not None for r in slots.values()):
             continue
         batches = mesh_batches.object_batches(obj, depsgraph)
         if batches is not None:
             work.append((obj, batches, slots))
-    if occluders:
-        # Depth first, so that geometry we do not shade hides what lies behind it.
-        shader = _occluder_shader()
-        gpu.state.color_mask_set(False, False, False, False)
-        try:
-            for obj, batches, slots in work:
-                shader.bind()
-                shader.uniform_float("mvp", _column_major(vp @ np.array(obj.matrix_world)))
-                for slot, batch in batches.batches.items():
-                    if slots.get(slot) is None:
-                        batch.draw(shader)
-        finally:
-            gpu.state.color_mask_set(True, True, True, True)
+    return work
+
+
+def _draw_slots(work: list, frame: DrawFrame, stats: DrawStats) -> None:
     for obj, batches, slots in work:
         model_matrix = np.array(obj.matrix_world)
-        normal_matrix = np.linalg.inv(model_matrix).T if abs(np.linalg.det(model_matrix)) \
-            > 1e-30 else np.eye(4)
+        normals = normal_matrix(model_matrix)
         drawn_here = False
         for slot, batch in batches.batches.items():
-            resource = slots.get(slot)
-            if resource is None:
+            if slots.get(slot) is None:
                 continue
-            key = resource.key(light_list, output=output)
-            if isinstance(resource, btf_gpu.BTFMaterial):
-                shader = btf_gpu.get_shader(key)
-                # Held until the draw: a freed uniform buffer leaves the block unbound.
-                params = resource.params(display, view.uniform(), vp)
-                resource.bind(shader, resource.light_texture(light_list, lights_key), params)
-            else:
-                shader = shaders.get_shader(key)
-                params = resource.params(display, view_origin=view.uniform(),
-                                         view_projection=vp)
-                resource.bind(shader, resource.light_texture(light_list, key.precontract,
-                                                             lights_key), params)
-            set_matrix(shader, "model_matrix", model_matrix)
-            set_matrix(shader, "normal_matrix", normal_matrix)
-            batch.draw(shader)
+            drawer, resource = slots[slot]
+            bound = drawer.bind(resource, frame)
+            set_matrix(bound.shader, "model_matrix", model_matrix)
+            set_matrix(bound.shader, "normal_matrix", normals)
+            batch.draw(bound.shader)
             drawn_here = True
-            stats.variants.add(key)
+            stats.variants.add(bound.key)
             stats.triangles += len(batches.arrays.triangles[slot])
             name = obj.material_slots[slot].material.name
             if name not in stats.materials:
@@ -222,11 +136,34 @@ def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
         if drawn_here:
             stats.objects.append(obj.name)
             stats.vertex_bytes += batches.arrays.nbytes
-    if prt_objects:
-        prt_output = output if output in prt_gpu.PRT_OUTPUTS else "XYZ"
-        stats.prt_objects = prt_gpu.draw_prt_objects(scene, depsgraph, vp, output=prt_output,
-                                                     display=display, objects=prt_objects)
-        stats.objects += stats.prt_objects
+
+
+def draw_objects(scene, depsgraph, view_projection: np.ndarray, view: View, *,
+                 output: str = "DISPLAY", display: DisplaySettings | None = None,
+                 lights: tuple | None = None, occluders: bool = True,
+                 only: set[str] | None = None) -> DrawStats:
+    """Draw the scene's drawable objects into the bound framebuffer (depth test on).
+
+    ``only`` names the materials to shade; the others are then drawn as occluders and
+    no object drawer draws.
+    """
+    stats = DrawStats()
+    toward_viewer = np.asarray(view.origin, dtype=np.float64)
+    light_list, lights_key = lights or scene_lights.drawn_lights(scene, toward_viewer)
+    frame = DrawFrame(np.asarray(view_projection, dtype=np.float64), view, light_list,
+                      lights_key, display or scene_lights.display_settings(scene), output)
+    whole = [(d, d.objects(scene)) for d in registry.object_drawers()] if only is None else []
+    taken = [obj for _, objects in whole for obj in objects]
+    work = _slot_work(scene, depsgraph, taken, only, occluders)
+    if occluders:
+        # Depth first, so that geometry we do not shade hides what lies behind it.
+        draw_occluders(work, frame.view_projection)
+    _draw_slots(work, frame, stats)
+    for drawer, objects in whole:
+        if objects:
+            drawn = drawer.draw(scene, depsgraph, objects, frame)
+            stats.drawn_whole[drawer.name] = drawn
+            stats.objects += drawn
     return stats
 
 
@@ -329,19 +266,14 @@ def redraw_viewports() -> None:
 
 
 def reset() -> None:
-    """Drop every GPU resource (textures, batches, shader variants)."""
+    """Drop every GPU resource (each drawer's, batches, shader variants)."""
     global VIEWPORT_ERROR, LAST_STATS
     VIEWPORT_ERROR = ""
     LAST_STATS = None
-    _MATERIALS.clear()
-    FAILED.clear()
+    registry.clear_caches()
     mesh_batches.clear_cache()
     shaders.clear_cache()
-    prt_gpu.clear_cache()
-    prt.clear_cache()
-    btf_gpu.clear_cache()
-    global _OCCLUDER_SHADER
-    _OCCLUDER_SHADER = None
+    _clear_occluder_shader()
 
 
 # GPU objects freed after Blender has torn its GPU context down crash the process at
@@ -387,3 +319,13 @@ def unregister() -> None:
             handlers.remove(function)
     disable_viewport()
     reset()
+
+
+def __getattr__(name: str):
+    if name not in _MOVED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    new = f"{__name__.rpartition('.')[0].rpartition('.')[0]}.{_MOVED[name]}"
+    warnings.warn(f"{__name__}.{name} moved to {new}.{name}; the old path goes in the next "
+                  "release", DeprecationWarning, stacklevel=2)
+    # By name, not an import statement: the handler depends on no drawer.
+    return getattr(importlib.import_module(new), name)
