@@ -215,9 +215,9 @@ class Baseline:
         interface.smooth("VEC3", "world_position")
         interface.smooth("VEC3", "world_normal")
         info.vertex_out(interface)
-        info.vertex_source(shaders.glsl_source("baseline_blinn_phong_vert.glsl"))
+        info.vertex_source(shaders.glsl_source("brdf/baseline_blinn_phong_vert.glsl"))
         info.fragment_out(0, "VEC4", "frag_colour")
-        info.fragment_source(shaders.glsl_source("baseline_blinn_phong_frag.glsl"))
+        info.fragment_source(shaders.glsl_source("brdf/baseline_blinn_phong_frag.glsl"))
         return info
 
     def bind(self) -> None:
@@ -415,9 +415,9 @@ def glsl_counts() -> dict:
 
     The fetch sites are counted in the sources; the formulas say how often each runs.
     """
-    packs_src = _between(shaders.glsl_source("factor_packs.glsl"), "vec4 sm_pack_product",
+    packs_src = _between(shaders.glsl_source("brdf/factor_packs.glsl"), "vec4 sm_pack_product",
                          "\n}")
-    basis_src = shaders.glsl_source("spectral_basis.glsl")
+    basis_src = shaders.glsl_source("brdf/spectral_basis.glsl")
     precontract_src = _between(basis_src, "#if SM_PRECONTRACT", "#else")
     coefficient_src = _between(basis_src, "#else", "#endif")
     sites = {"per_axis": packs_src.count("texelFetch("),

@@ -89,14 +89,14 @@ def harness():
         if stage not in shaders:
             info = gpu.types.GPUShaderCreateInfo()
             info.define("SM_STAGE", str(STAGES[stage]))
-            info.typedef_source(glsl_source("params.glsl"))
+            info.typedef_source(glsl_source("brdf/params.glsl"))
             info.uniform_buf(0, "SmParams", "sm")
             info.sampler(0, "FLOAT_2D", "input_tex")
             info.vertex_in(0, "VEC2", "corner")
             info.vertex_source(_VERTEX)
             info.fragment_out(0, "VEC4", "frag_colour")
-            info.fragment_source(glsl_source("common.glsl") + "\n"
-                                 + glsl_source("colour_pipeline.glsl") + "\n" + _FRAGMENT_MAIN)
+            info.fragment_source(glsl_source("common/common.glsl") + "\n"
+                                 + glsl_source("common/colour_pipeline.glsl") + "\n" + _FRAGMENT_MAIN)
             shader = gpu.shader.create_from_info(info)
             shaders[stage] = (shader, batch_for_shader(shader, "TRI_FAN", {"corner": _QUAD}))
         return shaders[stage]

@@ -12,16 +12,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...core.brdf.params import PARAMETERIZATIONS
 from ...core.lights import LIGHT_CODES
+from .outputs import SURFACE_REQUESTS, output_defines
 
 GLSL_DIR = Path(__file__).resolve().parents[3] / "glsl"
 
-PARAMETERIZATION_CODES = {"io": 0, "io_iso": 1, "hd": 2, "hd_iso": 3, "gs": 4, "ea": 5}
-OUTPUTS = {"XYZ": 0, "DISPLAY": 1, "POSITION": 2, "NORMAL": 3, "TANGENT": 4, "COORDINATES": 5}
+#: ``SM_PARAM``'s value per parameterisation, in the order of the one list of them
+#: (core/brdf/params.py); glsl/brdf/parameterization.glsl compares against the
+#: generated names ``SM_PARAM_<NAME>``, never against these numbers.
+PARAMETERIZATION_CODES = {name: code for code, name in enumerate(PARAMETERIZATIONS)}
 #: Fragment sources in the order they are concatenated (each uses the ones before).
-FRAGMENT_LIBRARY = ("common.glsl", "parameterization.glsl", "axis_lookup.glsl",
-                    "factor_packs.glsl", "spectral_basis.glsl", "lights.glsl", "frame.glsl",
-                    "colour_pipeline.glsl")
+FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/axis_lookup.glsl",
+                    "brdf/factor_packs.glsl", "brdf/spectral_basis.glsl", "common/lights.glsl",
+                    "common/frame.glsl", "common/colour_pipeline.glsl")
 
 #: Lights one variant draws. The light loop may be unrolled into one copy of the pack
 #: loop per light, and the frame time grows linearly with lights (docs/bench_draw.md):
@@ -29,6 +33,13 @@ FRAGMENT_LIBRARY = ("common.glsl", "parameterization.glsl", "axis_lookup.glsl",
 MAX_LIGHTS = 32
 
 _CACHE: dict = {}
+
+
+def parameterization_defines(name: str) -> dict[str, str]:
+    """``SM_PARAM`` (the code of ``name``) and ``SM_PARAM_<NAME>`` for every parameterisation."""
+    defines = {f"SM_PARAM_{key.upper()}": str(code) for key, code in PARAMETERIZATION_CODES.items()}
+    defines["SM_PARAM"] = str(PARAMETERIZATION_CODES[name])
+    return defines
 
 
 def light_type_bits(kinds) -> int:
@@ -52,12 +63,12 @@ class ShaderKey:
     light_types: frozenset
     cosine_weighted: bool = True
     precontract: bool = True
-    output: str = "XYZ"
+    output: str = "XYZ"         # a request of outputs.SURFACE_REQUESTS
     sphere: bool = False
 
     def defines(self) -> dict[str, str]:
         out = {
-            "SM_PARAM": str(PARAMETERIZATION_CODES[self.parameterization]),
+            **parameterization_defines(self.parameterization),
             "SM_AXES": str(self.axes),
             "SM_PACKS": str(self.packs),
             "SM_COEFFS": str(self.coefficients),
@@ -65,7 +76,7 @@ class ShaderKey:
             "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
-            "SM_OUTPUT": str(OUTPUTS[self.output]),
+            **output_defines(SURFACE_REQUESTS[self.output]),
         }
         if self.sphere:
             out["SM_GEOMETRY_SPHERE"] = "1"
@@ -81,18 +92,18 @@ class ShaderKey:
         if self.lights > MAX_LIGHTS:
             raise ValueError(f"{self.lights} lights reach the scene; the spectral shaders draw "
                              f"at most {MAX_LIGHTS}: hide or disable some lights")
-        if self.output not in OUTPUTS:
-            raise ValueError(f"unknown output {self.output!r}; valid: {sorted(OUTPUTS)}")
+        if self.output not in SURFACE_REQUESTS:
+            raise ValueError(f"unknown output {self.output!r}; valid: {sorted(SURFACE_REQUESTS)}")
 
 
 def glsl_source(name: str) -> str:
-    """One file of ``glsl/``."""
+    """One file of ``glsl/``, by its path there (``"brdf/params.glsl"``)."""
     return (GLSL_DIR / name).read_text(encoding="utf-8")
 
 
 def fragment_source() -> str:
     return "\n".join(glsl_source(name) for name in FRAGMENT_LIBRARY) + "\n" + \
-        glsl_source("surface_frag.glsl")
+        glsl_source("brdf/surface_frag.glsl")
 
 
 def create_info(key: ShaderKey, fragment: str | None = None):
@@ -104,13 +115,13 @@ def create_info(key: ShaderKey, fragment: str | None = None):
     info = gpu.types.GPUShaderCreateInfo()
     for name, value in key.defines().items():
         info.define(name, value)
-    info.typedef_source(glsl_source("params.glsl"))
+    info.typedef_source(glsl_source("brdf/params.glsl"))
     info.uniform_buf(0, "SmParams", "sm")
     info.sampler(0, "FLOAT_2D", "factor_tex")
     info.sampler(1, "FLOAT_2D", "light_tex")
     if key.sphere:
         info.vertex_in(0, "VEC2", "corner")
-        info.vertex_source(glsl_source("sphere_vert.glsl"))
+        info.vertex_source(glsl_source("brdf/sphere_vert.glsl"))
     else:
         # Per object: exactly the 128 bytes of push constants every backend supports.
         info.push_constant("MAT4", "model_matrix")
@@ -122,7 +133,7 @@ def create_info(key: ShaderKey, fragment: str | None = None):
         for name in ("world_position", "world_normal", "world_tangent"):
             interface.smooth("VEC3", name)
         info.vertex_out(interface)
-        info.vertex_source(glsl_source("mesh_vert.glsl"))
+        info.vertex_source(glsl_source("brdf/mesh_vert.glsl"))
     info.fragment_out(0, "VEC4", "frag_colour")
     info.fragment_source(fragment_source() if fragment is None else fragment)
     return info

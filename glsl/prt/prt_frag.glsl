@@ -1,8 +1,10 @@
+/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.transfer.vertex_xyz */
 /* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
  * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
  * spectral_materials/core/prt/albedo.py sample_layers) so that the Python mirror matches.
- * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT 0 writes XYZ,
- * 1 display sRGB, 2 the world position, 5 the UV, 6 the primitive index. */
+ * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT is one of
+ * SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world), _UV and _PRIMITIVE (the triangle's
+ * index) (blender/gpu/outputs.py). */
 
 vec4 sm_albedo_texel(ivec2 texel, int layer)
 {
@@ -13,13 +15,13 @@ vec4 sm_albedo_texel(ivec2 texel, int layer)
 
 void main()
 {
-#if SM_OUTPUT == 2
+#if SM_OUTPUT == SM_OUTPUT_POSITION
   frag_colour = vec4(world_position, 1.0);
   return;
-#elif SM_OUTPUT == 5
+#elif SM_OUTPUT == SM_OUTPUT_UV
   frag_colour = vec4(tex_uv, 0.0, 1.0);
   return;
-#elif SM_OUTPUT == 6
+#elif SM_OUTPUT == SM_OUTPUT_PRIMITIVE
   frag_colour = vec4(float(gl_PrimitiveID), 0.0, 0.0, 1.0);
   return;
 #else
@@ -55,7 +57,7 @@ void main()
 #  endif
   /* Ringing of a band-limited sharp light: no physical spectrum has a negative XYZ. */
   xyz = max(xyz, vec3(0.0));
-#  if SM_OUTPUT == 0
+#  if SM_OUTPUT == SM_OUTPUT_XYZ
   frag_colour = vec4(xyz, 1.0);
 #  else
   frag_colour = vec4(sm_xyz_to_display(xyz), 1.0);

@@ -1,3 +1,4 @@
+/* Mirror: none (the RGB baseline of the draw benchmark) */
 /* Baseline for scripts/bench_draw.py: the mesh stage of an RGB Blinn–Phong shader,
  * the same work as mesh_vert.glsl (world position and normal, clip position). The
  * parameter block `bp` (BpParams) is declared by the script, next to its packing. */

@@ -1,5 +1,6 @@
+/* Mirror: spectral_materials.core.prt.transfer.irradiance */
 /* Spectral PRT, vertex stage (the spectral PRT paper's inner sum): the spectral
- * irradiance coefficients Ê_j = Σ_k T̃_k L̃_kj of this vertex. T̃ (SM_PRT_SH values per
+ * irradiance coefficients Ê_j = Σ_k T̃_k L̃_kj of this vertex. T̃ (K SH values per
  * vertex, padded to texels of 4) comes from transfer_tex, texel v·SM_PRT_TEXELS + i laid
  * out row by row sm.sizes.x wide; L̃ from environment_tex, one row per SH coefficient
  * and SM_PRT_VEC4 texels of spectral coefficients per row (turned into the object's

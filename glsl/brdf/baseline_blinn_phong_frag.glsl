@@ -1,3 +1,4 @@
+/* Mirror: none (the RGB baseline of the draw benchmark) */
 /* Baseline for scripts/bench_draw.py: an RGB Blinn–Phong surface lit by BP_LIGHTS
  * lights, drawn on the same mesh as the spectral shader so that frame times can be
  * stated as ratios (shared/PROTOCOL.md, "Time and memory").

@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.colour.pipeline.xyz_to_display */
 /* Display pipeline of the factor-pack paper (§3.1): XYZ → Bradford adaptation from
  * the scene white to D65 → linear sRGB → sigmoid tone map → sRGB encoding.
  * Mirrors spectral_materials/core/colour/pipeline.py. The two matrices come from

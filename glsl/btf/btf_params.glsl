@@ -1,5 +1,6 @@
+/* Mirror: spectral_materials.blender.btf.drawer.BTFMaterial.params_block */
 /* The BTF parameter block (uniform buffer `sm`), std140. Filled by
- * spectral_materials/blender/btf/drawer.py params_block(), which must match. The
+ * spectral_materials/blender/btf/drawer.py BTFMaterial.params_block(), which must match. The
  * adaptation, xyz_to_rgb and display fields have the names colour_pipeline.glsl reads. */
 
 struct SmBtfParams {

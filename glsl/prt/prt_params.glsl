@@ -1,5 +1,6 @@
+/* Mirror: spectral_materials.blender.prt.drawer.params_block */
 /* The PRT parameter block (uniform buffer `sm`), std140. Filled by
- * spectral_materials/blender/prt/drawer.py prt_params_block(), which must match. The
+ * spectral_materials/blender/prt/drawer.py params_block(), which must match. The
  * adaptation, xyz_to_rgb and display fields have the names colour_pipeline.glsl reads. */
 
 struct SmPrtParams {

@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.btf.container.HemisphereTriangulation.weights */
 /* The three measured views around a local view direction and their barycentric
  * weights. Mirrors spectral_materials/core/btf/container.py HemisphereTriangulation.weights:
  * the azimuthal-equidistant image of v picks a cell of a grid × grid table (cell_tex:

@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.brdf.factored.FactoredBRDF.coefficients */
 /* Factor-pack reconstruction: per pack of 4 rank-one terms, the product over the
  * angular axes of each factor interpolated at the pixel's coordinates.
  * Mirrors FactoredBRDF.coefficients (spectral_materials/core/brdf/factored.py).

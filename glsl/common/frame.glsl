@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.brdf.shading.shading_frame, spectral_materials.core.brdf.shading.generated_tangent, spectral_materials.core.brdf.shading.TANGENT_EPS_SQ */
 /* The per-pixel shading frame (t, b, n). Mirrors core/brdf/shading.py shading_frame.
  * The tangent is made orthogonal to n (Gram–Schmidt). Where it is missing, zero or
  * parallel to n, the generated field t = normalize(ŷ × n) is used, and x̂ where

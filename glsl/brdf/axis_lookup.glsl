@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.brdf.params.axis_lookup */
 /* Linear-interpolation indices and weight on an axis's cell centres.
  * Mirrors params.axis_lookup: value ≈ mix(table[i0], table[i1], w). Periodic axes
  * wrap between the last and first cells; other axes clamp the value into [lo, hi]

@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.blender.brdf.gpu_material.params_block */
 /* The parameter block (uniform buffer `sm`), std140. Filled by
  * spectral_materials/blender/brdf/gpu_material.py params_block(), which must match. */
 

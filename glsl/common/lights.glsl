@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.lights.SpectralLight.incidence, spectral_materials.core.brdf.shading.light_rows */
 /* Light incidence: the direction toward the light and the irradiance it brings at P,
  * for a surface facing it. Mirrors core/lights.py (SpectralLight.incidence).
  *

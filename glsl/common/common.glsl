@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.lights.LIGHT_CODES, spectral_materials.core.lights.MIN_DISTANCE_SQ, spectral_materials.core.brdf.shading.LIGHT_HEADER */
 /* Constants and safe vector helpers shared by every stage.
  * Mirrors spectral_materials/core/brdf/shading.py. */
 

@@ -1,6 +1,8 @@
+/* Mirror: spectral_materials.core.brdf.params.Parameterization.forward */
 /* BRDF parameterisations: local (wi, wo) → grid coordinates.
  * Mirrors Parameterization.forward in spectral_materials/core/brdf/params.py.
- * SM_PARAM selects one: 0 io, 1 io_iso, 2 hd, 3 hd_iso, 4 gs, 5 ea.
+ * SM_PARAM selects one, SM_PARAM_<NAME> names each (generated from the list of them,
+ * core/brdf/params.py PARAMETERIZATIONS, by blender/gpu/shaders.py).
  * Unused coordinates are 0. */
 
 float sm_wrap_2pi(float a)
@@ -59,24 +61,24 @@ vec4 sm_gram_schmidt(vec3 wi, vec3 wo)
 
 vec4 sm_coordinates(vec3 wi, vec3 wo)
 {
-#if SM_PARAM == 0 || SM_PARAM == 1 || SM_PARAM == 5
+#if SM_PARAM == SM_PARAM_IO || SM_PARAM == SM_PARAM_IO_ISO || SM_PARAM == SM_PARAM_EA
   vec2 si = sm_spherical(wi);
   vec2 so = sm_spherical(wo);
-#  if SM_PARAM == 0
+#  if SM_PARAM == SM_PARAM_IO
   return vec4(si.x, si.y, so.x, so.y);
-#  elif SM_PARAM == 1
+#  elif SM_PARAM == SM_PARAM_IO_ISO
   return vec4(si.x, sm_wrap_2pi(so.y - si.y), so.x, 0.0);
-#  else
+#  else /* ea */
   return vec4(si.x, so.x, si.y, so.y);
 #  endif
-#elif SM_PARAM == 2
+#elif SM_PARAM == SM_PARAM_HD
   return sm_half_difference(wi, wo);
-#elif SM_PARAM == 3
+#elif SM_PARAM == SM_PARAM_HD_ISO
   vec4 hd = sm_half_difference(wi, wo);
   return vec4(hd.x, hd.z, hd.w, 0.0);
-#elif SM_PARAM == 4
+#elif SM_PARAM == SM_PARAM_GS
   return sm_gram_schmidt(wi, wo);
 #else
-#  error "SM_PARAM must be 0..5"
+#  error "SM_PARAM names no parameterisation this file draws"
 #endif
 }

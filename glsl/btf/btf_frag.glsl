@@ -1,11 +1,12 @@
+/* Mirror: spectral_materials.core.btf.render.DrawableBTF.shade_xyz */
 /* Reflectance-field BTF (Meseth, Müller, Klein 2003, §5.1): per light, the fitted
  * luminance RF_v'(x, l) of the three measured views around the local view direction,
  * blended with barycentric weights, times the texel's spectral albedo under that
  * light. Mirrors spectral_materials/core/btf/render.py DrawableBTF.shade_xyz.
  * SM_BTF_KIND 0: RFP (biquadratic in l.x, l.y); 1: RFNL (ρd + Σ a_j max(t̂_j·l, 0)^n_j,
  * unit t̂ so that nothing overflows). Parameters are fetched unfiltered (nearest texel,
- * repeat). SM_OUTPUT 0 writes XYZ, 1 display sRGB, 2 the world position, 3 the
- * normal facing the viewer, 4 the raw tangent, 5 the UV. */
+ * repeat). SM_OUTPUT is one of SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world),
+ * _NORMAL (facing the viewer), _TANGENT (raw) and _UV (blender/gpu/outputs.py). */
 
 vec4 sm_btf_record(int record, ivec2 texel)
 {
@@ -43,13 +44,13 @@ void main()
   if (dot(N, V) < 0.0) {
     N = -N;
   }
-#if SM_OUTPUT == 2
+#if SM_OUTPUT == SM_OUTPUT_POSITION
   frag_colour = vec4(P, 1.0);
-#elif SM_OUTPUT == 3
+#elif SM_OUTPUT == SM_OUTPUT_NORMAL
   frag_colour = vec4(N, 1.0);
-#elif SM_OUTPUT == 4
+#elif SM_OUTPUT == SM_OUTPUT_TANGENT
   frag_colour = vec4(world_tangent, 1.0);
-#elif SM_OUTPUT == 5
+#elif SM_OUTPUT == SM_OUTPUT_UV
   frag_colour = vec4(tex_uv, 0.0, 1.0);
 #else
   mat3 frame = sm_frame(N, world_tangent);
@@ -84,7 +85,7 @@ void main()
       xyz += (irradiance * y / SM_PI) * albedo_xyz;
     }
   }
-#  if SM_OUTPUT == 0
+#  if SM_OUTPUT == SM_OUTPUT_XYZ
   frag_colour = vec4(xyz, 1.0);
 #  else
   frag_colour = vec4(sm_xyz_to_display(xyz), 1.0);

@@ -1,4 +1,5 @@
-/* Mesh geometry: world position, normal and tangent for the fragment stage. */
+/* Mirror: none (geometry only: world position, normal, tangent and UV) */
+/* BTF meshes: world position, normal, tangent and UV for the fragment stage. */
 
 void main()
 {
@@ -6,5 +7,6 @@ void main()
   world_position = world.xyz;
   world_normal = mat3(normal_matrix) * normal;
   world_tangent = mat3(model_matrix) * tangent.xyz;
+  tex_uv = uv;
   gl_Position = sm.view_projection * world;
 }

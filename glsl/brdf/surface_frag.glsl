@@ -1,8 +1,10 @@
+/* Mirror: spectral_materials.core.brdf.shading.shade_xyz */
 /* Spectral surface shading: every light through the factor packs, to linear XYZ
- * (SM_OUTPUT 0) or to display sRGB (SM_OUTPUT 1). SM_OUTPUT 2/3/4 write the
- * world position, the geometric normal facing the viewer and the raw tangent
- * instead, so that tests can evaluate the Python mirror on the same geometry;
- * SM_OUTPUT 5 writes the parameterisation's coordinates for light 0. */
+ * (SM_OUTPUT_XYZ) or to display sRGB (SM_OUTPUT_DISPLAY). SM_OUTPUT_POSITION, _NORMAL
+ * and _TANGENT write the world position, the geometric normal facing the viewer and
+ * the raw tangent instead, so that tests can evaluate the Python mirror on the same
+ * geometry; SM_OUTPUT_PARAMETERIZATION writes the parameterisation's coordinates for
+ * light 0 (blender/gpu/outputs.py). */
 
 void main()
 {
@@ -29,19 +31,19 @@ void main()
     N = -N;
   }
 #endif
-#if SM_OUTPUT == 2
+#if SM_OUTPUT == SM_OUTPUT_POSITION
   frag_colour = vec4(P, 1.0);
   return;
-#elif SM_OUTPUT == 3
+#elif SM_OUTPUT == SM_OUTPUT_NORMAL
   frag_colour = vec4(N, 1.0);
   return;
-#elif SM_OUTPUT == 4
+#elif SM_OUTPUT == SM_OUTPUT_TANGENT
   frag_colour = vec4(T, 1.0);
   return;
 #else
   mat3 frame = sm_frame(N, T);
   vec3 wo = sm_to_local(frame, V);
-#  if SM_OUTPUT == 5
+#  if SM_OUTPUT == SM_OUTPUT_PARAMETERIZATION
   vec3 wi0;
   sm_light_incidence(0, P, wi0);
   frag_colour = sm_coordinates(sm_to_local(frame, wi0), wo);
@@ -60,7 +62,7 @@ void main()
       xyz += irradiance * reflected;
     }
   }
-#  if SM_OUTPUT == 0
+#  if SM_OUTPUT == SM_OUTPUT_XYZ
   frag_colour = vec4(xyz, 1.0);
 #  else
   frag_colour = vec4(sm_xyz_to_display(xyz), 1.0);

@@ -1,3 +1,4 @@
+/* Mirror: spectral_materials.core.brdf.factored.FactoredBRDF.xyz, spectral_materials.core.brdf.shading.light_texels */
 /* The spectral side: reflected XYZ from the pack products and one light's
  * light × CMF coefficients. Mirrors FactoredBRDF.xyz and core/brdf/shading.py.
  *
