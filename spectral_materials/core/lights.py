@@ -4,7 +4,7 @@ A :class:`SpectralLight` is a sun, point, spot or area light with an SPD. Its
 ``incidence(points)`` gives, at each shaded point, the unit direction toward the
 light and the irradiance it brings to a surface facing it; the SPD only sets
 the colour (it is normalised as shared/PROTOCOL.md says, so that a white
-Lambertian facing a sun of strength 1 reflects Y = 1). ``glsl/lights.glsl`` is
+Lambertian facing a sun of strength 1 reflects Y = 1). ``glsl/common/lights.glsl`` is
 the same code for the GPU, and tests hold the two together.
 
 Strengths follow Blender's units: a sun's strength is its irradiance (W/m²); a

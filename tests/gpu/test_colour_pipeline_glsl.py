@@ -1,4 +1,4 @@
-"""Every stage of glsl/colour_pipeline.glsl, drawn offscreen, against colour-science.
+"""Every stage of glsl/common/colour_pipeline.glsl, drawn offscreen, against colour-science.
 
 A harness shader (params.glsl's ``SmParams`` block, the library's common.glsl and
 colour_pipeline.glsl) reads one input value per texel of an RGBA32F texture with
@@ -96,7 +96,8 @@ def harness():
             info.vertex_source(_VERTEX)
             info.fragment_out(0, "VEC4", "frag_colour")
             info.fragment_source(glsl_source("common/common.glsl") + "\n"
-                                 + glsl_source("common/colour_pipeline.glsl") + "\n" + _FRAGMENT_MAIN)
+                                 + glsl_source("common/colour_pipeline.glsl") + "\n"
+                                 + _FRAGMENT_MAIN)
             shader = gpu.shader.create_from_info(info)
             shaders[stage] = (shader, batch_for_shader(shader, "TRI_FAN", {"corner": _QUAD}))
         return shaders[stage]

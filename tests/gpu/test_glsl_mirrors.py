@@ -95,6 +95,20 @@ def test_readme_lists_every_file_with_its_mirrors():
             assert f"`{dotted.removeprefix(PREFIX)}`" in cell, (name, dotted, cell)
 
 
+def test_every_path_named_into_glsl_exists():
+    """Docstrings, comments and docs that name ``glsl/<path>.glsl`` name a file there."""
+    root = GLSL.parent
+    texts = [*root.glob("*.md"), *root.glob("docs/*.md"), GLSL / "README.md",
+             *root.glob("spectral_materials/**/*.py"), *root.glob("benchmarks/*.py"),
+             *root.glob("scripts/*.py"), *root.glob("tests/**/*.py")]
+    stale = []
+    for path in texts:
+        for named in re.findall(r"glsl/([\w/*]+\.glsl)", path.read_text(encoding="utf-8")):
+            if not list(GLSL.glob(named)):
+                stale.append(f"{path.relative_to(root)}: glsl/{named}")
+    assert not stale, stale
+
+
 def _families() -> dict:
     every_light = frozenset(lights.LIGHT_CODES)
     surface = shaders.ShaderKey("hd", 4, 2, 8, 2, every_light)

@@ -1,7 +1,7 @@
 """The EEVEE node group that reconstructs a material's factor packs for its key light.
 
 ``build_group(material, key_light, ...)`` writes a shader node group ``SM EEVEE
-<material>`` that does, in nodes, what ``glsl/surface_frag.glsl`` does for one
+<material>`` that does, in nodes, what ``glsl/brdf/surface_frag.glsl`` does for one
 light, stage by stage in labelled frames:
 
 1. *Shading frame*: n (Geometry normal), t (UV tangent, or the generated field
@@ -35,7 +35,7 @@ from ...core.brdf.factored import FactoredBRDF
 
 GROUP_PREFIX = "SM EEVEE "
 SUPPORTED = ("io", "io_iso", "ea", "hd", "hd_iso")
-#: Below this |v.xy| an azimuth is taken as 0 (as glsl/parameterization.glsl).
+#: Below this |v.xy| an azimuth is taken as 0 (as glsl/brdf/parameterization.glsl).
 POLE_RHO = 1e-5
 COLUMN = 190
 ROW = 150

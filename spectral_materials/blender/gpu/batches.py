@@ -5,7 +5,7 @@ corner: ``position`` (object space), ``normal`` (the corner normal) and ``tangen
 (xyz from the active UV map's tangent space, w its bitangent sign) and ``uv`` (the
 active UV map; BTF materials read it). A mesh without
 UVs, or whose tangents cannot be computed, gets zero tangents: the shader then
-uses the generated field (glsl/frame.glsl). One index buffer per material slot.
+uses the generated field (glsl/common/frame.glsl). One index buffer per material slot.
 
 The cache is keyed by object name and invalidated by a ``depsgraph_update_post``
 handler (:func:`note_depsgraph_updates`) when an object's geometry changes.

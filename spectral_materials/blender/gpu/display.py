@@ -2,7 +2,7 @@
 
 :class:`DisplaySettings` is what the scene asks of the display (adaptation white,
 exposure, tone map); :func:`display_matrices` turns its white into the std140 mat4s the
-shaders' colour pipeline (glsl/colour_pipeline.glsl) reads.
+shaders' colour pipeline (glsl/common/colour_pipeline.glsl) reads.
 """
 
 from __future__ import annotations

@@ -44,7 +44,7 @@ def parameterization_defines(name: str) -> dict[str, str]:
 
 def light_type_bits(kinds) -> int:
     """``SM_LIGHT_TYPES``: bit ``LIGHT_CODES[kind]`` set for each light type drawn, so that
-    glsl/lights.glsl compiles only the branches a scene needs."""
+    glsl/common/lights.glsl compiles only the branches a scene needs."""
     bits = 0
     for kind in kinds:
         bits |= 1 << LIGHT_CODES[kind]

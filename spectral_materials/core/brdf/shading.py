@@ -21,7 +21,7 @@ from ..colour import spectra
 from ..lights import SpectralLight
 from .factored import FactoredBRDF
 
-#: Texels before the spectral weights in a light-texture row (glsl/lights.glsl).
+#: Texels before the spectral weights in a light-texture row (glsl/common/lights.glsl).
 LIGHT_HEADER = 3
 #: A tangent whose part orthogonal to n is this short (squared) carries no direction.
 TANGENT_EPS_SQ = 1e-8
@@ -88,7 +88,7 @@ class View:
 
 
 def light_rows(lights: list[SpectralLight], spectral_texels) -> np.ndarray:
-    """A light texture (lights, LIGHT_HEADER + K, 4) float32 (glsl/lights.glsl).
+    """A light texture (lights, LIGHT_HEADER + K, 4) float32 (glsl/common/lights.glsl).
 
     Header texels: (position, type code), (axis, strength), (spot cos, spot blend
     width, 0, 0); then ``spectral_texels(light)``, (K, 4), whatever the shader reads after
@@ -118,7 +118,7 @@ def xyz_texels(weights: np.ndarray) -> np.ndarray:
 
 def light_texels(model: FactoredBRDF, lights: list[SpectralLight], *,
                  precontract: bool = True) -> np.ndarray:
-    """The light texture (lights, width, 4) float32 for drawing ``model`` (glsl/lights.glsl).
+    """The light texture (lights, width, 4) float32 for drawing ``model`` (glsl/common/lights.glsl).
 
     After the header (:func:`light_rows`): with ``precontract``, 3 texels per pack holding
     the X, Y, Z weights of its 4 terms, ``K = spectralᵀ Ĩ``; without, the light's

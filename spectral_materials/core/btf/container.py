@@ -264,7 +264,7 @@ class HemisphereTriangulation:
     are all ≥ −``EPS`` is taken; outside the samples' hull (for instance a view beyond
     the last ring), the candidate with the largest smallest weight is taken and its
     negative weights are clamped to 0 and renormalised. The GLSL mirror
-    (``glsl/btf_views.glsl``) does exactly this with the tables :meth:`cell_table` and
+    (``glsl/btf/btf_views.glsl``) does exactly this with the tables :meth:`cell_table` and
     :meth:`triangle_table`.
     """
 
@@ -277,7 +277,7 @@ class HemisphereTriangulation:
     candidates: np.ndarray = field(init=False)       # (K,) int triangle indices
 
     EPS = 1e-6
-    #: Candidate-list texture width (glsl/btf_views.glsl reads entry i at (i % W, i / W)).
+    #: Candidate-list texture width (glsl/btf/btf_views.glsl reads entry i at (i % W, i / W)).
     LIST_WIDTH = 1024
 
     def __post_init__(self) -> None:

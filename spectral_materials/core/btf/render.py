@@ -17,7 +17,7 @@ eq. 4 writes one for data without it). In XYZ, with the protocol's light weights
 ``c(x)`` the albedo's coefficients on an orthonormal basis Ψ (5 nm, 380–780 nm) fitted
 to the texels' albedo spectra.
 
-GPU layout (:class:`DrawableBTF`, ``glsl/btf_frag.glsl``)
+GPU layout (:class:`DrawableBTF`, ``glsl/btf/btf_frag.glsl``)
 ---------------------------------------------------------
 One RGBA32F 2D-array texture of *records*: a record is one W × H RGBA image. Records
 ``0 … A−1`` hold the albedo coefficients (4 per record), then view ``v`` holds records
@@ -257,7 +257,7 @@ class DrawableBTF:
         return np.unique(index[weight > 0])
 
     def light_texels(self, lights: list[SpectralLight]) -> np.ndarray:
-        """The light texture (lights, LIGHT_HEADER + m, 4): ``glsl/lights.glsl``'s header,
+        """The light texture (lights, LIGHT_HEADER + m, 4): ``glsl/common/lights.glsl``'s header,
         then the light's XYZ weights Ĩ_j on the albedo basis."""
         return light_rows(lights, lambda light: xyz_texels(light.weights(WAVELENGTHS,
                                                                          self.basis)))

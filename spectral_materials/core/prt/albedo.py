@@ -301,7 +301,7 @@ def sample_layers(layers: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """Bilinearly filtered R̃ (N, m, 3) at texture coordinates ``uv`` (N, 2), in float64.
 
     The same arithmetic as a fragment shader filtering by hand with ``texelFetch``
-    (``glsl/prt_frag.glsl``): ``s = u·W − ½``, ``t = v·H − ½``; the four texels around
+    (``glsl/prt/prt_frag.glsl``): ``s = u·W − ½``, ``t = v·H − ½``; the four texels around
     ``(⌊s⌋, ⌊t⌋)`` wrapped with REPEAT in both directions, weighted by the fractions.
     Texel ``(i, j)`` has its centre at ``((i + ½)/W, (j + ½)/H)``; row ``j = 0`` is ``v``
     near 0 (OpenGL: the first row uploaded is the bottom).
