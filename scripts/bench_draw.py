@@ -5,7 +5,7 @@ offscreen (1200 × 1200, orthographic) is drawn through the add-on's own path
 (``GPUMaterial``, ``shaders.get_shader``, ``MeshBatches``) with synthetic factor packs in
 the factor-pack paper's layouts (io_iso 90×180×90 and hd 90×45×90×45, spectral basis of
 8), for 1 … 48 packs and 1 … 8 lights. Every frame time is stated as a ratio against an
-RGB Blinn–Phong shader (``glsl/baseline_blinn_phong_*.glsl``) drawing the same batch to
+RGB Blinn–Phong shader (``glsl/brdf/baseline_blinn_phong_*.glsl``) drawing the same batch to
 the same target with the same number of lights, measured in the same run and
 interleaved with the spectral measurements (shared/PROTOCOL.md, "Time and memory"),
 and as absolute ms/frame on the machine at hand. The texture memory of every
@@ -626,7 +626,7 @@ def write_markdown(results: dict, path: Path) -> None:
         f"{s['frames']} frames ended by a 1-pixel read-back (which waits for the GPU), "
         f"divided by {s['frames']}; ms/frame is the median of {s['reps']} repetitions, "
         "after one warm-up frame that compiles the variant. **Baseline**: an RGB "
-        "Blinn–Phong shader (`glsl/baseline_blinn_phong_*.glsl`, suns and 1/(4πr²) point "
+        "Blinn–Phong shader (`glsl/brdf/baseline_blinn_phong_*.glsl`, suns and 1/(4πr²) point "
         "lights, spots and areas drawn as points) with as many lights as the row, drawing "
         "the same batch into the same target, timed before and after every spectral "
         f"timing (B S B S … S B; {s['frames']} to {4 * s['frames']} baseline frames, so "
@@ -692,10 +692,10 @@ def write_markdown(results: dict, path: Path) -> None:
         lines.append("")
     lines += [
         "Counted from the GLSL (per pack and per light; d angular axes, m = "
-        f"{BASIS_SIZE}): `sm_pack_product` (glsl/factor_packs.glsl) fetches "
+        f"{BASIS_SIZE}): `sm_pack_product` (glsl/brdf/factor_packs.glsl) fetches "
         f"{counts['sites']['per_axis']} unfiltered texels per axis (`texelFetch` at i0 and "
         "i1) and interpolates them itself, `product *= mix(a, b, w)`; "
-        "`sm_reflected_xyz` (glsl/spectral_basis.glsl) then fetches 3 texels (X, Y, Z "
+        "`sm_reflected_xyz` (glsl/brdf/spectral_basis.glsl) then fetches 3 texels (X, Y, Z "
         "weights of the pack's 4 terms) and takes 3 dot4 (precontract), or fetches m "
         "texels of the pack's spectral factor and accumulates m dot4 into the "
         "coefficients (coefficients mode; then m more fetches and m vec3 FMA per light, "
@@ -722,7 +722,7 @@ def write_markdown(results: dict, path: Path) -> None:
         "no interpolation ALU per pack. Ours reads 2 unfiltered texels per axis and "
         "interpolates in ALU (d more fetches and d mix4 per pack) so that the GPU agrees "
         "with the Python lookup `FactoredBRDF.coefficients` to float32 rounding: a "
-        "hardware linear filter rounds its weights to 8 bits (glsl/factor_packs.glsl). "
+        "hardware linear filter rounds its weights to 8 bits (glsl/brdf/factor_packs.glsl). "
         f"Precontraction takes the spectral side from m to 3 fetches per pack, saving "
         f"m − 3 = {BASIS_SIZE - 3}, more than the d extra fetches of the exact "
         "interpolation: if the paper's spectral factor of a pack took m RGBA texels, as "
