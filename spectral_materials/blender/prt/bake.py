@@ -27,6 +27,13 @@ import numpy as np
 
 from ...core.progress import ProgressCallback, report
 from ...core.prt import raycast
+from ..gpu.mesh_arrays import (
+    corner_vertices,
+    evaluated_mesh,
+    loop_triangles,
+    vertex_normals,
+    vertex_positions,
+)
 
 ATTRIBUTE_PREFIX = "sm_prt_"
 KEY_PROPERTY = "sm_prt_key"
@@ -53,31 +60,12 @@ class TransferBake:
         return self.rays_cast / max(self.seconds, 1e-9)
 
 
-def _mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
-    count = len(mesh.vertices)
-    co = np.empty(count * 3, dtype=np.float64)
-    normals = np.empty(count * 3, dtype=np.float64)
-    mesh.vertices.foreach_get("co", co)
-    mesh.vertex_normals.foreach_get("vector", normals)
-    return co.reshape(-1, 3), normals.reshape(-1, 3)
-
-
 def geometry_key(mesh) -> str:
     """A digest of the vertex positions and faces: the transfer is stale when it changes."""
-    co, _ = _mesh_arrays(mesh)
-    loops = np.empty(len(mesh.loops), dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", loops)
+    co = vertex_positions(mesh, np.float64)
     digest = hashlib.sha256(co.astype(np.float32).tobytes())
-    digest.update(loops.tobytes())
+    digest.update(corner_vertices(mesh).tobytes())
     return digest.hexdigest()[:16]
-
-
-def _loop_triangles(mesh) -> np.ndarray:
-    """(T, 3) vertex indices of the mesh's loop triangles."""
-    mesh.calc_loop_triangles()
-    triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("vertices", triangles)
-    return triangles.reshape(-1, 3)
 
 
 @dataclass
@@ -116,16 +104,12 @@ def read_geometry(obj, depsgraph=None) -> MeshGeometry:
     if obj is None or obj.type != "MESH":
         raise ValueError(f"PRT bakes meshes; '{getattr(obj, 'name', obj)}' is not one")
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh()
-    try:
+    with evaluated_mesh(obj, depsgraph) as mesh:
         if len(mesh.vertices) == 0 or len(mesh.polygons) == 0:
             raise ValueError(f"Object '{obj.name}' has no faces to bake")
-        co, normals = _mesh_arrays(mesh)
-        return MeshGeometry(co, unit_normals(normals), _loop_triangles(mesh),
-                            geometry_key(mesh))
-    finally:
-        evaluated.to_mesh_clear()
+        co = vertex_positions(mesh, np.float64)
+        return MeshGeometry(co, unit_normals(vertex_normals(mesh)),
+                            loop_triangles(mesh, of="vertices"), geometry_key(mesh))
 
 
 def trace_geometry(geometry: MeshGeometry, *, rays: int = 256,
