@@ -3,8 +3,8 @@
  * luminance RF_v'(x, l) of the three measured views around the local view direction,
  * blended with barycentric weights, times the texel's spectral albedo under that
  * light. Mirrors spectral_materials/core/btf/render.py DrawableBTF.shade_xyz.
- * SM_BTF_KIND 0: RFP (biquadratic in l.x, l.y); 1: RFNL (ρd + Σ a_j max(t̂_j·l, 0)^n_j,
- * unit t̂ so that nothing overflows). Parameters are fetched unfiltered (nearest texel,
+ * SM_BTF_KIND_RFP: biquadratic in l.x, l.y; SM_BTF_KIND_RFNL: ρd + Σ a_j max(t̂_j·l, 0)^n_j,
+ * with unit t̂ so that nothing overflows. Parameters are fetched unfiltered (nearest texel,
  * repeat). SM_OUTPUT is one of SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world),
  * _NORMAL (facing the viewer), _TANGENT (raw) and _UV (blender/gpu/outputs.py). */
 
@@ -20,7 +20,7 @@ float sm_btf_luminance(int view, ivec2 texel, vec3 l)
 {
   int base = sm.counts.x + view * sm.counts.y;
   vec4 p0 = sm_btf_record(base, texel);
-#if SM_BTF_KIND == 0
+#if SM_BTF_KIND == SM_BTF_KIND_RFP
   vec4 p1 = sm_btf_record(base + 1, texel);
   float y = p0.x * l.x * l.x + p0.y * l.y * l.y + p0.z * l.x * l.y + p0.w * l.x
             + p1.x * l.y + p1.y;

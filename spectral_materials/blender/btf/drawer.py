@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.btf.container import HemisphereTriangulation
-from ...core.btf.render import DrawableBTF, TileLayout
+from ...core.btf.render import KINDS, DrawableBTF, TileLayout
 from ...core.lights import SpectralLight
 from ..gpu import shaders
 from ..gpu.context import ensure_gpu
@@ -33,7 +33,9 @@ from . import storage as btf_storage
 #: ``SmBtfParams`` as glsl/btf/btf_params.glsl declares it: the packer's one spec.
 PARAMS = glsl_block("btf/btf_params.glsl", "SmBtfParams")
 PARAMS_BYTES = PARAMS.size
-KIND_CODES = {"RFP": 0, "RFNL": 1}
+#: ``SM_BTF_KIND`` per reflectance-field kind (core/btf/render.py KINDS); the GLSL compares
+#: against the generated names ``SM_BTF_KIND_<KIND>``.
+KIND_CODES = {kind: code for code, kind in enumerate(KINDS)}
 FRAGMENT_LIBRARY = ("common/common.glsl", "common/lights.glsl", "common/frame.glsl",
                     "common/colour_pipeline.glsl", "btf/btf_views.glsl", "btf/btf_frag.glsl")
 
@@ -53,6 +55,7 @@ class BTFShaderKey:
 
     def defines(self) -> dict[str, str]:
         return {"SM_BTF_KIND": str(KIND_CODES[self.kind]), "SM_BTF_LOBES": str(self.lobes),
+                **{f"SM_BTF_KIND_{kind}": str(code) for kind, code in KIND_CODES.items()},
                 "SM_BTF_COEFFS": str(self.coefficients),
                 "SM_BTF_ALBEDO_RECORDS": str(-(-self.coefficients // 4)),
                 "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
