@@ -21,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import bpy
 import gpu
 
+from benchmarks.scenes import factory_scene
 from spectral_materials import blender as addon
 from spectral_materials.blender.prt import scene as prt
 from spectral_materials.blender.viewport import draw
@@ -28,11 +29,7 @@ from spectral_materials.blender.viewport import draw
 
 def fresh_plane_scene():
     """The factory scene with only its camera, looking down at a PRT plane."""
-    bpy.ops.wm.read_homefile(use_factory_startup=True)
-    for obj in list(bpy.data.objects):
-        if obj.type != "CAMERA":
-            bpy.data.objects.remove(obj)
-    scene = bpy.context.scene
+    scene = factory_scene()
     scene.camera.location, scene.camera.rotation_euler = (0.0, 0.0, 6.0), (0.0, 0.0, 0.0)
     scene.render.resolution_x = scene.render.resolution_y = 32
     bpy.ops.mesh.primitive_plane_add(size=2.0)

@@ -1,4 +1,4 @@
-"""The demo's spectral PRT section (called by demo.py after the main scene is saved).
+"""The demo's spectral PRT section (called by ``demos.main`` after the main scene is saved).
 
 Two scenes, after the spectral PRT paper's two figures:
 
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-from demo_sizes import DemoSizes
 
+from benchmarks.scenes import factory_scene
 from spectral_materials.blender.lights import scene_lights
 from spectral_materials.blender.prt import drawer as prt_gpu
 from spectral_materials.blender.prt import images as prt_images
@@ -31,22 +31,14 @@ from spectral_materials.core.colour import pipeline as colour_pipeline
 from spectral_materials.core.formats.spectral_exr import write_spectral_exr
 from spectral_materials.core.prt import reference as prt_reference
 
+from .sizes import DemoSizes
+
 WL = spectra.WAVELENGTHS_REFERENCE
 
 
-def _png(display_bottom_up: np.ndarray, path: Path) -> None:
-    import imageio.v2 as imageio
-
-    rgb = np.nan_to_num(display_bottom_up[::-1, :, :3], nan=1.0)
-    imageio.imwrite(path, (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8))
-
-
 def _fresh_scene(camera_location, camera_rotation, size: int):
-    bpy.ops.wm.read_homefile(use_factory_startup=True)
-    for obj in list(bpy.data.objects):
-        if obj.type != "CAMERA":
-            bpy.data.objects.remove(obj)
-    scene = bpy.context.scene
+    """The factory scene with only its camera, placed, and a square image of ``size``."""
+    scene = factory_scene()
     scene.camera.location = camera_location
     scene.camera.rotation_euler = camera_rotation
     scene.render.resolution_x = scene.render.resolution_y = size
@@ -82,20 +74,8 @@ def _stats(de: np.ndarray) -> dict:
 
 def colorchecker_fl4(images: Path, sizes: DemoSizes) -> dict:
     """Figure 2: spectral and RGB PRT against the 5 nm reference under FL4."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     scene = _fresh_scene((0.0, -5.2, 1.9), (np.radians(75.0), 0.0, 0.0), sizes.prt_px)
-    bpy.ops.mesh.primitive_monkey_add(size=2.0, location=(0.0, 0.0, 1.0))
-    monkey = bpy.context.active_object
-    if sizes.prt_subdivisions:
-        modifier = monkey.modifiers.new("subdivide", "SUBSURF")
-        modifier.levels = sizes.prt_subdivisions
-        bpy.ops.object.modifier_apply(modifier=modifier.name)
-    bpy.ops.mesh.primitive_grid_add(x_subdivisions=16, y_subdivisions=16, size=6.0)
-    obj = _join([monkey, bpy.context.active_object], "Suzanne")
+    obj = _suzanne_on_floor(sizes.prt_subdivisions)
     env = scene.spectral.environment
     env.source, env.illuminant, env.sky, env.bands, env.basis_size = \
         "SKY", "FL4", "OVERCAST", 5, 8
@@ -125,17 +105,7 @@ def colorchecker_fl4(images: Path, sizes: DemoSizes) -> dict:
               ("reference (5 nm)", _display(scene, geometry.image(reference, 0.0))),
               ("spectral PRT", _display(scene, spectral_xyz[..., :3])),
               ("ΔE94 spectral PRT", geometry.image(de_spectral))]
-    fig, axes = plt.subplots(1, 5, figsize=(15, 3.4))
-    for ax, (title, data) in zip(axes, panels):
-        if data.ndim == 2:
-            shown = ax.imshow(data[::-1], cmap="magma", vmin=0, vmax=10)
-        else:
-            ax.imshow(np.clip(np.nan_to_num(data[::-1]), 0, 1))
-        ax.set_title(title)
-        ax.axis("off")
-    fig.colorbar(shown, ax=axes, shrink=0.8, label="ΔE94")
-    fig.savefig(images / "prt_colorchecker_fl4.png", dpi=80)
-    plt.close(fig)
+    _panels_figure(panels, images / "prt_colorchecker_fl4.png")
     bpy.ops.wm.save_as_mainfile(filepath=str(images.parent / "prt_colorchecker.blend"))
     obj.data.calc_loop_triangles()
     return {"vertices": len(obj.data.vertices), "triangles": len(obj.data.loop_triangles),
@@ -146,6 +116,38 @@ def colorchecker_fl4(images: Path, sizes: DemoSizes) -> dict:
             "reference_seconds": reference_seconds, "basis": int(env.basis_size),
             "reference_rays": sizes.prt_reference_rays,
             "bands": int(env.bands)}
+
+
+def _suzanne_on_floor(subdivisions: int):
+    """Suzanne (subdivided ``subdivisions`` times) joined with a 16 × 16 floor grid."""
+    bpy.ops.mesh.primitive_monkey_add(size=2.0, location=(0.0, 0.0, 1.0))
+    monkey = bpy.context.active_object
+    if subdivisions:
+        modifier = monkey.modifiers.new("subdivide", "SUBSURF")
+        modifier.levels = subdivisions
+        bpy.ops.object.modifier_apply(modifier=modifier.name)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=16, y_subdivisions=16, size=6.0)
+    return _join([monkey, bpy.context.active_object], "Suzanne")
+
+
+def _panels_figure(panels: list, path: Path) -> None:
+    """One row of pictures and ΔE94 maps (2-D panels, on one 0–10 colour bar)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 5, figsize=(15, 3.4))
+    for ax, (title, data) in zip(axes, panels):
+        if data.ndim == 2:
+            shown = ax.imshow(data[::-1], cmap="magma", vmin=0, vmax=10)
+        else:
+            ax.imshow(np.clip(np.nan_to_num(data[::-1]), 0, 1))
+        ax.set_title(title)
+        ax.axis("off")
+    fig.colorbar(shown, ax=axes, shrink=0.8, label="ΔE94")
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
 
 
 def _render_rgb(scene) -> np.ndarray:

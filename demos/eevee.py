@@ -1,5 +1,6 @@
 """The demo's EEVEE section: every demo material through its EEVEE node group, the scene
-rendered by EEVEE next to the 5 nm reference and the draw handler. Called by demo.py."""
+rendered by EEVEE next to the 5 nm reference and the draw handler. Called by
+``demos.main``."""
 
 from __future__ import annotations
 
@@ -153,7 +154,7 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
     from scipy import ndimage
 
     from spectral_materials.blender.brdf import sources, storage
-    from spectral_materials.blender.gpu import offscreen
+    from spectral_materials.blender.brdf.sphere import render_sphere
     from spectral_materials.core.brdf import metrics
     from spectral_materials.core.colour import spectra
 
@@ -164,7 +165,7 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
         brdf = sources.material_inputs(material).brdf()
         for illuminant, incidence in SPHERE_CASES:
             xyz, facts = eevee.render_sphere_eevee(model, incidence, illuminant, size)
-            handler = offscreen.render_sphere(model, incidence, illuminant, size)[..., :3]
+            handler = render_sphere(model, incidence, illuminant, size)[..., :3]
             view = metrics.sphere_directions(incidence, size)
             top_down = np.zeros((size, size, 3))
             top_down[view.mask] = metrics.reference_xyz(brdf, view.wi, view.wo, illuminant)

@@ -1,4 +1,4 @@
-"""The demo's BTF section (called by demo.py): generated corduroy on a cushion.
+"""The demo's BTF section (called by ``demos.main``): generated corduroy on a cushion.
 
 A cushion (a smooth cylinder on its side, UV mapped) gets a corduroy BTF generated here
 (``core/btf/generate.py``: ridges with deep grooves, self-shadowing and masking,
@@ -16,10 +16,9 @@ from pathlib import Path
 
 import bpy
 import numpy as np
-from bench_btf import fit_all  # scripts/, beside this file
-from demo_prt import _png  # the demo's display PNG writer
-from demo_sizes import DemoSizes
 
+from benchmarks.btf import fit_all
+from benchmarks.scenes import factory_scene
 from spectral_materials.blender.btf import fit as blender_btf
 from spectral_materials.blender.btf import storage as btf_storage
 from spectral_materials.blender.viewport import draw
@@ -28,13 +27,13 @@ from spectral_materials.core.btf import fit as btf_fit
 from spectral_materials.core.btf import generate as btf_generate
 from spectral_materials.core.colour import spectra
 
+from .images import write_display_png
+from .sizes import DemoSizes
+
 
 def build_scene(sizes: DemoSizes):
-    bpy.ops.wm.read_homefile(use_factory_startup=True)
-    for obj in list(bpy.data.objects):
-        if obj.type != "CAMERA":
-            bpy.data.objects.remove(obj)
-    scene = bpy.context.scene
+    """The cushion with its corduroy material, the camera, an FL2 spot and a sun."""
+    scene = factory_scene()
     bpy.ops.mesh.primitive_cylinder_add(vertices=96, radius=0.6, depth=2.2,
                                         end_fill_type="NOTHING")
     cushion = bpy.context.active_object
@@ -91,7 +90,7 @@ def views_used(scene, material) -> dict:
 
 def comparison_table(texels: int) -> list[dict]:
     """The BTF paper's Table 1 on this corduroy: LAF, RFP, RFNL, CP, fitted as
-    ``bench_btf.py`` fits them."""
+    ``benchmarks.btf`` fits them."""
     data = btf_generate.generate_btf("corduroy", texels=texels)
     rows = []
     for name, model in fit_all(data, cp_packs=8).items():
@@ -108,7 +107,7 @@ def btf_section(images: Path, sizes: DemoSizes) -> dict:
     fit_wall = time.perf_counter() - start
     display, stats = draw.render_camera(scene, output="DISPLAY")
     xyz, _ = draw.render_camera(scene, output="XYZ")
-    _png(display, images / "btf_cushion.png")
+    write_display_png(display, images / "btf_cushion.png")
     section = {"figures": result.figures, "fit_wall_seconds": fit_wall,
                "drawn": material.name in stats.materials,
                "finite": bool(np.isfinite(xyz).all()),

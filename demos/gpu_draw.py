@@ -1,5 +1,5 @@
 """The demo's GPU section: the scene drawn by the spectral shaders against 5 nm, and the
-protocol sphere per material through the GPU path. Called by ``scripts/demo.py``."""
+protocol sphere per material through the GPU path. Called by ``demos.main``."""
 
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ import bpy
 import numpy as np
 
 from spectral_materials.blender.brdf import scene_reference, sources, storage
-from spectral_materials.blender.gpu import offscreen
+from spectral_materials.blender.brdf.sphere import render_sphere
+from spectral_materials.blender.gpu import batches as mesh_batches
+from spectral_materials.blender.gpu.matrices import set_matrix
 from spectral_materials.blender.lights import scene_lights
 from spectral_materials.core.brdf import metrics, shading
 from spectral_materials.core.colour import pipeline as colour_pipeline
@@ -74,7 +76,7 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
         for illuminant in ILLUMINANTS:
             white = colour_pipeline.white_xyz(illuminant, spectra.WAVELENGTHS_REFERENCE)
             for incidence in INCIDENCES:
-                gpu = offscreen.render_sphere(model, incidence, illuminant, size)
+                gpu = render_sphere(model, incidence, illuminant, size)
                 mirror, mask = shading.sphere_xyz(model, incidence, illuminant, size)
                 view = metrics.sphere_directions(incidence, size)     # row 0 at the top
                 top_down = np.zeros((size, size, 3))
@@ -130,17 +132,18 @@ def report_lines(scene_stats: dict, spheres: dict, frame: dict | None,
 def frame_time(scene, width: int = 1280, height: int = 720, frames: int = 3,
                repeats: int = 3) -> dict:
     """Median ms/frame drawing the scene spectrally and with the RGB Blinn–Phong baseline
-    of scripts/bench_draw.py on the same meshes, interleaved in one run."""
-    import bench_draw
+    of the draw benchmark (``benchmarks.draw_baseline``) on the same meshes, interleaved
+    in one run."""
     import gpu
 
+    from benchmarks.draw_baseline import Baseline
     from spectral_materials.blender.gpu.offscreen import Target
     from spectral_materials.blender.viewport import draw
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     vp, view = draw.camera_view(scene.camera, width, height, depsgraph)
     lights, key = scene_lights.drawn_lights(scene, np.asarray(view.origin))
-    baseline = bench_draw.Baseline(lights, vp)
+    baseline = Baseline(lights, vp)
 
     def spectral() -> None:
         draw.draw_objects(scene, depsgraph, vp, view, lights=(lights, key))
@@ -148,12 +151,12 @@ def frame_time(scene, width: int = 1280, height: int = 720, frames: int = 3,
     def rgb() -> None:
         baseline.bind()
         for obj in draw.drawable_objects(scene):
-            batches = draw.mesh_batches.object_batches(obj, depsgraph)
+            batches = mesh_batches.object_batches(obj, depsgraph)
             if batches is None:
                 continue
             matrix = np.array(obj.matrix_world)
-            draw.set_matrix(baseline.shader, "model_matrix", matrix)
-            draw.set_matrix(baseline.shader, "normal_matrix", np.linalg.inv(matrix).T)
+            set_matrix(baseline.shader, "model_matrix", matrix)
+            set_matrix(baseline.shader, "normal_matrix", np.linalg.inv(matrix).T)
             for batch in batches.batches.values():
                 batch.draw(baseline.shader)
 
