@@ -66,9 +66,9 @@ MOVED_MODULES: dict[str, str] = {
     "blender.btf_gpu": "blender.btf.drawer",
     "blender.btf_storage": "blender.btf.storage",
     "blender.eevee_nodes": "blender.eevee.nodes",
-    "blender.properties": "blender.ui.properties",
-    "blender.operators": "blender.ui.operators",
-    "blender.panels": "blender.ui.panels",
+    "blender.properties": "blender.brdf.properties",
+    "blender.operators": "blender.brdf.operators",
+    "blender.panels": "blender.brdf.panels",
 }
 
 #: Old modules whose name is now a package: the package forwards to this module.

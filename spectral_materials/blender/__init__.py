@@ -1,7 +1,10 @@
 """Blender adapters (everything that imports ``bpy``): thin layers over :mod:`..core`.
 
-``register()`` / ``unregister()`` add and remove, in order, the property groups, the
-operators, the panels and the draw handlers; explicit class lists live in each module.
+``register()`` adds the packages of :data:`PACKAGES` in order (each one's ``CLASSES``,
+then its ``register()``, which adds its pointer properties or hooks), then the viewport's
+draw handlers; ``unregister()`` removes them in reverse. The order puts every
+PointerProperty's target before its users: the shared groups (``ui``) first, the scene's
+settings (which point to the PRT environment) last.
 
 Before anything else, the colour-science and SciPy that would load are checked
 (:func:`spectral_materials.dependency_problems`): if another extension supplied a copy too
@@ -21,8 +24,16 @@ _PROBLEMS = dependency_problems()
 if not _PROBLEMS:
     import bpy
 
-    from .ui import operators, panels, properties
+    from . import brdf, btf, eevee, lights, prt, scene_properties, ui
+
+    # Each capability's drawer registers itself with the viewport's registry at import.
+    from .brdf import drawer as _brdf_drawer  # noqa: F401
+    from .btf import drawer as _btf_drawer  # noqa: F401
+    from .prt import drawer as _prt_drawer  # noqa: F401
     from .viewport import draw
+
+    #: Registered in this order, unregistered in reverse.
+    PACKAGES = (ui, lights, brdf, prt, btf, eevee, scene_properties)
 
 
 _STATE = {"registered": False, "exit_hook": False}
@@ -39,11 +50,12 @@ def register() -> None:
         raise DependencyError(dependency_message(problems))
     undo = []
     try:
-        properties.register()
-        undo.append(properties.unregister)
-        for cls in operators.CLASSES + panels.CLASSES:
-            bpy.utils.register_class(cls)
-            undo.append(lambda cls=cls: bpy.utils.unregister_class(cls))
+        for package in PACKAGES:
+            for cls in package.CLASSES:
+                bpy.utils.register_class(cls)
+                undo.append(lambda cls=cls: bpy.utils.unregister_class(cls))
+            package.register()
+            undo.append(package.unregister)
         draw.register()
         _STATE["registered"] = True
         # The bpy module (no Blender binary) never unregisters add-ons itself, and bpy 4.5
@@ -66,6 +78,7 @@ def unregister() -> None:
         return  # register() refused or never ran: nothing is registered
     _STATE["registered"] = False
     draw.unregister()
-    for cls in reversed(operators.CLASSES + panels.CLASSES):
-        bpy.utils.unregister_class(cls)
-    properties.unregister()
+    for package in reversed(PACKAGES):
+        package.unregister()
+        for cls in reversed(package.CLASSES):
+            bpy.utils.unregister_class(cls)

@@ -11,8 +11,8 @@ import bpy
 import pytest
 from blender_helpers import spectral_material
 
+from spectral_materials import blender as addon
 from spectral_materials.blender.lights import plots
-from spectral_materials.blender.ui import properties
 
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "factor_scene.py"
 
@@ -59,7 +59,8 @@ def test_factor_scene_script_fails_clearly(saved_scene, tmp_path):
 
 
 def test_every_property_has_a_tooltip():
-    groups = [cls for cls in properties.CLASSES if cls.__name__ != "SPECTRAL_PG_job"]
+    groups = [cls for package in addon.PACKAGES for cls in package.CLASSES
+              if issubclass(cls, bpy.types.PropertyGroup) and cls.__name__ != "SPECTRAL_PG_job"]
     missing = [f"{cls.__name__}.{prop.identifier}" for cls in groups
                for prop in cls.bl_rna.properties
                if prop.identifier not in {"rna_type", "name", "plot_key"}
@@ -68,9 +69,10 @@ def test_every_property_has_a_tooltip():
 
 
 def test_operators_have_descriptions():
-    from spectral_materials.blender.ui import operators
-
-    for cls in operators.CLASSES:
+    operators = [cls for package in addon.PACKAGES for cls in package.CLASSES
+                 if issubclass(cls, bpy.types.Operator)]
+    assert len(operators) == 10
+    for cls in operators:
         assert cls.__doc__ and cls.bl_idname.startswith("spectral.")
 
 
@@ -102,7 +104,7 @@ def test_light_spd_errors_name_the_light(clean_scene):
 
 
 def test_panel_staleness_check(clean_scene):
-    from spectral_materials.blender.ui import panels
+    from spectral_materials.blender.brdf import panels
 
     material = spectral_material()
     assert bpy.ops.spectral.factor_material() == {"FINISHED"}

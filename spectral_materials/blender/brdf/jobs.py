@@ -26,8 +26,7 @@ from ...core.brdf.job import FactorOptions, MaterialJobResult, factor_material
 from ...core.colour import scene_basis
 from ...core.colour.basis import LinearModelBasis
 from ...core.progress import ProgressCallback, report, scaled
-from ..eevee import apply as eevee
-from . import sources, storage
+from . import hooks, sources, storage
 from .scene import ScenePlan
 
 BASIS_KEY = "basis"
@@ -184,8 +183,9 @@ def commit_scene_job(scene, result: SceneJobResult) -> str:
                                result.factored[name][1])
     store_scene_basis(scene, result.choice.basis, result.choice.max_de94)
     summary = result.summary()
-    # An applied EEVEE node group follows its factors.
-    notes = [eevee.refresh(bpy.data.materials[name], scene) for name in prepared]
+    # What follows the factors (an applied EEVEE node group) is rebuilt now.
+    notes = [note for name in prepared
+             for note in hooks.after_store(bpy.data.materials[name], scene)]
     summary = "; ".join([summary] + [n for n in notes if n])
     scene.spectral.analysis = summary
     scene.spectral.analysis_json = json.dumps(result.analysis(), default=json_default)

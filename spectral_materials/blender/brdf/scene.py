@@ -13,10 +13,15 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..ui.properties import OBSERVER_NAMES
+from ..lights.visibility import GEOMETRY_TYPES, scene_lights
+from ..lights.visibility import renders as _renders
+from ..ui.enums import OBSERVER_NAMES
 from . import sources
 
-GEOMETRY_TYPES = {"MESH", "CURVE", "CURVES", "SURFACE", "META", "FONT", "POINTCLOUD", "VOLUME"}
+# GEOMETRY_TYPES, _renders and scene_lights live in lights.visibility (the drawers below
+# this layer ask the same question) and are served from here too.
+__all__ = ["GEOMETRY_TYPES", "ScenePlan", "SceneError", "plan_scene", "scene_lights",
+           "used_materials"]
 
 
 @dataclass
@@ -41,14 +46,6 @@ class SceneError(ValueError):
     """The scene has nothing to work on, or something in it is unusable."""
 
 
-def _renders(obj, view_layer) -> bool:
-    try:
-        visible = obj.visible_get(view_layer=view_layer)
-    except (RuntimeError, TypeError):
-        visible = not obj.hide_get()
-    return visible and not obj.hide_render
-
-
 def used_materials(scene, view_layer=None) -> list:
     """Materials in the slots of visible, renderable objects, in a stable order."""
     view_layer = view_layer or scene.view_layers[0]
@@ -60,20 +57,6 @@ def used_materials(scene, view_layer=None) -> list:
             if slot.material is not None and slot.material.name not in seen:
                 seen[slot.material.name] = slot.material
     return [seen[name] for name in sorted(seen)]
-
-
-def scene_lights(scene, view_layer=None) -> tuple[list, list[str]]:
-    """(light objects that reach the scene, names of those left out and why)."""
-    view_layer = view_layer or scene.view_layers[0]
-    reaching, left_out = [], []
-    for obj in sorted((o for o in scene.objects if o.type == "LIGHT"), key=lambda o: o.name):
-        if not _renders(obj, view_layer):
-            left_out.append(f"{obj.name} (hidden)")
-        elif obj.data.energy <= 0 or obj.data.spectral.power <= 0:
-            left_out.append(f"{obj.name} (no power)")
-        else:
-            reaching.append(obj)
-    return reaching, left_out
 
 
 def plan_scene(scene, *, only: list | None = None, force: bool = False,

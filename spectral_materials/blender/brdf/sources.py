@@ -15,16 +15,24 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import bpy
 import numpy as np
 
 from ...core.brdf import factor, models
 from ...core.brdf.params import get_parameterization
-from ...core.colour import spectra, spectrum_library
+from ...core.colour import spectra
 from ...core.formats.brdf_files import read_brdf_file
-from ..ui.properties import MODEL_KEYS, PARAMETERIZATION_KEYS
+from ..lights.spd import WAVELENGTHS, SourceError, light_spd
+from ..lights.spd import abspath as _abspath
+from ..lights.spd import finite as _finite
+from ..lights.spd import typed_or_csv as _typed_or_csv
+from .properties import MODEL_KEYS, PARAMETERIZATION_KEYS
 
-WAVELENGTHS = spectra.WAVELENGTHS_REFERENCE
+# SourceError, WAVELENGTHS and light_spd live in lights.spd (the lights layer must not
+# import this one) and are served from here too.
+__all__ = ["WAVELENGTHS", "MaterialInputs", "SourceError", "input_hash", "light_spd",
+           "material_inputs", "resolve_auto", "resolution_for", "sampled_spectra",
+           "spectrum_from_source", "spectrum_label"]
+
 #: Exponents beyond this underflow every sample but the peak on any grid we can store.
 MAX_EXPONENT = 1e6
 MAX_THETA_CELLS = 180
@@ -54,10 +62,6 @@ AUTO_GLOSSY = "auto_glossy"
 # Range the spectra of each role must lie in (checked before the model sees them).
 _SPECTRUM_RANGE = {"albedo": (0.0, 1.0), "diffuse": (0.0, 1.0), "specular": (0.0, 1.0),
                    "ior_n": (1e-6, 100.0), "ior_k": (0.0, 100.0)}
-
-
-class SourceError(ValueError):
-    """A material or light cannot be used as described; the message says why."""
 
 
 @dataclass
@@ -104,29 +108,6 @@ def input_hash(inputs: MaterialInputs, basis: np.ndarray | None) -> str:
     if basis is not None:
         digest.update(np.ascontiguousarray(basis, dtype=np.float32).tobytes())
     return digest.hexdigest()
-
-
-def _finite(name: str, value: float) -> float:
-    value = float(value)
-    if not math.isfinite(value):
-        raise SourceError(f"{name} is {value}; type a finite number")
-    return value
-
-
-def _abspath(path: str) -> str:
-    return bpy.path.abspath(path) if path else ""
-
-
-def _typed_or_csv(group) -> np.ndarray:
-    """A spectrum typed into ``group.text`` (kind TEXT) or read from ``group.filepath``."""
-    if group.kind == "TEXT":
-        pair = spectrum_library.parse_spectrum_text(group.text)
-    else:
-        path = _abspath(group.filepath)
-        if not path:
-            raise SourceError("no CSV file chosen")
-        pair = spectrum_library.read_spectrum_csv(path)
-    return spectrum_library.spectrum_to_grid(*pair, WAVELENGTHS)
 
 
 def spectrum_label(material_settings, param: str, prop: str) -> str:
@@ -245,29 +226,6 @@ def material_inputs(material) -> MaterialInputs:
     except ValueError as exc:
         raise SourceError(f"{name}: {exc}") from None
     return inputs
-
-
-def light_spd(light) -> np.ndarray:
-    """A light's SPD × power on :data:`WAVELENGTHS` (main thread only)."""
-    s = light.spectral
-    name = f"Light '{light.name}'"
-    power = _finite(f"{name}: power", s.power)
-    if power < 0:
-        raise SourceError(f"{name}: power must be ≥ 0, got {power}")
-    try:
-        if s.kind == "ILLUMINANT":
-            spd = spectra.illuminant(s.illuminant, WAVELENGTHS)
-        elif s.kind == "BLACKBODY":
-            spd = spectrum_library.blackbody_spd(_finite(f"{name}: temperature", s.temperature),
-                                                 WAVELENGTHS)
-        else:
-            spd = _typed_or_csv(s)
-        spectrum_library.check_spd(spd, name)
-    except (ValueError, OSError) as exc:
-        message = str(exc)
-        raise SourceError(message if message.startswith(name) else f"{name}: {message}") \
-            from None
-    return spd * power
 
 
 def sampled_spectra(brdf, isotropic: bool) -> np.ndarray:

@@ -22,10 +22,11 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 
-import bpy
 import numpy as np
 
 from ...core.brdf.factored import FactoredBRDF, json_default
+from ..images import new_float_image as new_float_image  # served from here too (BTF, PRT)
+from ..images import remove_image as remove_image
 
 IMAGE_PREFIX = "SM factors "
 PLOT_PREFIX = "SM plot "
@@ -91,28 +92,6 @@ def unpack_pixels(pixels: np.ndarray, lengths: list[int], terms: int,
         block = pixels[len(lengths) * groups:, :rows]
         basis = np.ascontiguousarray(block.transpose(1, 0, 2).reshape(rows, -1)[:, :m])
     return arrays, basis
-
-
-def new_float_image(name: str, pixels: np.ndarray, *, data: bool = True):
-    """A packed full-float RGBA image with a fake user holding ``pixels`` (h, w, 4)."""
-    height, width = pixels.shape[:2]
-    image = bpy.data.images.new(name, width=width, height=height, alpha=True,
-                                float_buffer=True, is_data=data)
-    try:
-        image.use_half_precision = False
-        image.pixels.foreach_set(np.ascontiguousarray(pixels, dtype=np.float32).ravel())
-        image.pack()
-        image.use_fake_user = True
-    except Exception:
-        bpy.data.images.remove(image)
-        raise
-    return image
-
-
-def remove_image(image) -> None:
-    if image is not None and image.name in bpy.data.images and \
-            bpy.data.images[image.name] == image:
-        bpy.data.images.remove(image)
 
 
 def _figures(model: FactoredBRDF) -> dict:

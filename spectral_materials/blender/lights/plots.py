@@ -11,7 +11,8 @@ import hashlib
 import bpy
 
 from ...core.raster_plots import plot_spectrum
-from ..brdf import sources, storage
+from ..images import new_float_image, remove_image
+from .spd import WAVELENGTHS, SourceError, light_spd
 
 SPD_PREFIX = "SM SPD "
 _pending: set[str] = set()
@@ -25,12 +26,12 @@ def _key(light) -> str:
 
 def refresh_light_plot(light) -> None:
     """Draw the SPD picture of ``light`` now (not from a panel's draw)."""
-    spd = sources.light_spd(light) / max(light.spectral.power, 1e-30)
-    pixels = plot_spectrum(sources.WAVELENGTHS, spd)
+    spd = light_spd(light) / max(light.spectral.power, 1e-30)
+    pixels = plot_spectrum(WAVELENGTHS, spd)
     old = light.spectral.plot
-    light.spectral.plot = storage.new_float_image(SPD_PREFIX + light.name, pixels, data=False)
+    light.spectral.plot = new_float_image(SPD_PREFIX + light.name, pixels, data=False)
     light.spectral.plot_key = _key(light)
-    storage.remove_image(old)
+    remove_image(old)
 
 
 def _refresh_later(light_name: str) -> None:
@@ -44,7 +45,7 @@ def _refresh_later(light_name: str) -> None:
         if light is not None:
             try:
                 refresh_light_plot(light)
-            except sources.SourceError:
+            except SourceError:
                 pass              # the panel shows the error itself
         return None
 
@@ -53,7 +54,7 @@ def _refresh_later(light_name: str) -> None:
 
 def light_plot(light):
     """The light's SPD picture, scheduling a redraw if it is stale; raises SourceError."""
-    sources.light_spd(light)          # validates; the panel shows the message
+    light_spd(light)          # validates; the panel shows the message
     if light.spectral.plot is None or light.spectral.plot_key != _key(light):
         _refresh_later(light.name)
     return light.spectral.plot

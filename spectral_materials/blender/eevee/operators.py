@@ -1,0 +1,58 @@
+"""Apply and remove the EEVEE node group of the active material."""
+
+from __future__ import annotations
+
+import bpy
+
+from ..ui.modal_job import EXPECTED_ERRORS
+from ..ui.widgets import active_material
+from . import apply as eevee
+
+
+class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
+    """Reconstruct the active material's factor packs in an EEVEE node group (the key light
+    spectrally, the other lights and the world through a fitted RGB Principled BSDF)"""
+
+    bl_idname = "spectral.eevee_apply"
+    bl_label = "Apply EEVEE Node Group"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        material = active_material(context)
+        return material is not None and material.spectral.result.image is not None
+
+    def execute(self, context):
+        material = active_material(context)
+        try:
+            counts = eevee.apply_eevee(material, context.scene, measure=True)
+        except EXPECTED_ERRORS as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        de = counts["de94"]
+        self.report({"INFO"}, f"'{material.name}': {counts['nodes']} nodes, "
+                              f"{counts['images']} texture(s); key light ΔE94 mean "
+                              f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm")
+        return {"FINISHED"}
+
+
+class SPECTRAL_OT_eevee_remove(bpy.types.Operator):
+    """Remove the EEVEE node group and restore the material's original node links"""
+
+    bl_idname = "spectral.eevee_remove"
+    bl_label = "Remove EEVEE Node Group"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        material = active_material(context)
+        return material is not None and eevee.applied(material) is not None
+
+    def execute(self, context):
+        material = active_material(context)
+        eevee.remove_eevee(material, context.scene)
+        self.report({"INFO"}, f"'{material.name}': original node tree restored")
+        return {"FINISHED"}
+
+
+CLASSES = (SPECTRAL_OT_eevee_apply, SPECTRAL_OT_eevee_remove)
