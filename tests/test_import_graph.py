@@ -35,7 +35,6 @@ def _rank(layers) -> dict[str, int]:
     return {group: i for i, layer in enumerate(layers) for group in layer}
 
 
-@pytest.mark.xfail(strict=True, reason="blender: the draw hub's circle (issue 17, in progress)")
 def test_no_module_imports_itself_back():
     found = cycles(module_graph())
     assert not found, "import cycles:\n" + "\n".join(" -> ".join(c) for c in found)
