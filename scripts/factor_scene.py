@@ -50,56 +50,47 @@ def _parse(argv: list[str], inside_blender: bool) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
-def run(args: argparse.Namespace, inside_blender: bool) -> int:
+class _Refused(Exception):
+    """A problem with the arguments or the file, printed as one error line (exit status 1)."""
+
+
+def _open(args: argparse.Namespace, inside_blender: bool):
+    """The add-on package, with the .blend opened unless Blender opened it already."""
     import bpy
 
-    if not inside_blender:
-        if not args.blend.is_file():
-            print(f"factor_scene: error: {args.blend} does not exist", file=sys.stderr)
-            return 1
-        addon = blender_addon.addon()
-        bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
-    else:
-        addon = blender_addon.addon()
-    from importlib import import_module
+    if inside_blender:
+        return blender_addon.addon()
+    if not args.blend.is_file():
+        raise _Refused(f"{args.blend} does not exist")
+    addon = blender_addon.addon()
+    bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()))
+    return addon
 
-    jobs = import_module(addon.__name__ + ".brdf.jobs")
-    core = import_module(addon.__name__.rsplit(".", 1)[0] + ".core")
-    progress_module = import_module(core.__name__ + ".progress")
+
+def _scene_and_materials(args: argparse.Namespace):
+    """The scene to factor (with ``--tolerance`` applied) and the materials (None: all)."""
+    import bpy
 
     scene = bpy.data.scenes.get(args.scene) if args.scene else bpy.context.scene
     if scene is None:
-        print(f"factor_scene: error: no scene named {args.scene!r}", file=sys.stderr)
-        return 1
+        raise _Refused(f"no scene named {args.scene!r}")
     if args.save and not bpy.data.filepath:
-        print("factor_scene: error: --save needs a file; use --output", file=sys.stderr)
-        return 1
+        raise _Refused("--save needs a file; use --output")
     if args.tolerance is not None:
         scene.spectral.basis_tolerance = args.tolerance
-    only = None
-    if args.materials:
-        missing = [name for name in args.materials if name not in bpy.data.materials]
-        if missing:
-            print(f"factor_scene: error: no material named {', '.join(missing)}",
-                  file=sys.stderr)
-            return 1
-        only = [bpy.data.materials[name] for name in args.materials]
+    if not args.materials:
+        return scene, None
+    missing = [name for name in args.materials if name not in bpy.data.materials]
+    if missing:
+        raise _Refused(f"no material named {', '.join(missing)}")
+    return scene, [bpy.data.materials[name] for name in args.materials]
 
-    progress = progress_module.TerminalProgress(quiet=args.quiet)
-    start = time.perf_counter()
-    try:
-        with progress_module.ctrl_c_cancels(progress):
-            result = jobs.factor_scene(scene, progress, only=only, force=args.force,
-                                       factor=not args.basis_only)
-    except core.Cancelled:
-        print("\nfactor_scene: interrupted; nothing was stored", file=sys.stderr)
-        return 130
-    except KeyboardInterrupt:  # the second Ctrl-C: the job stopped where it was
-        print("\nfactor_scene: interrupted at once; the file was not saved", file=sys.stderr)
-        return 130
-    except (ValueError, OSError) as exc:
-        print(f"\nfactor_scene: error: {exc}", file=sys.stderr)
-        return 1
+
+def _report_and_save(args: argparse.Namespace, result, scene, start: float) -> None:
+    """Print the summary, write ``--report`` and save the file as asked (``start``: the job's
+    ``perf_counter``)."""
+    import bpy
+
     analysis = result.analysis()
     analysis["file"] = bpy.data.filepath
     analysis["scene"] = scene.name
@@ -117,6 +108,37 @@ def run(args: argparse.Namespace, inside_blender: bool) -> int:
     elif args.output:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         bpy.ops.wm.save_as_mainfile(filepath=str(args.output.resolve()), copy=True)
+
+
+def run(args: argparse.Namespace, inside_blender: bool) -> int:
+    """Open, factor, report and save → the exit status."""
+    from importlib import import_module
+
+    try:
+        addon = _open(args, inside_blender)
+        scene, only = _scene_and_materials(args)
+    except _Refused as exc:
+        print(f"factor_scene: error: {exc}", file=sys.stderr)
+        return 1
+    jobs = import_module(addon.__name__ + ".brdf.jobs")
+    core = import_module(addon.__name__.rsplit(".", 1)[0] + ".core")
+    progress_module = import_module(core.__name__ + ".progress")
+    progress = progress_module.TerminalProgress(quiet=args.quiet)
+    start = time.perf_counter()
+    try:
+        with progress_module.ctrl_c_cancels(progress):
+            result = jobs.factor_scene(scene, progress, only=only, force=args.force,
+                                       factor=not args.basis_only)
+    except core.Cancelled:
+        print("\nfactor_scene: interrupted; nothing was stored", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:  # the second Ctrl-C: the job stopped where it was
+        print("\nfactor_scene: interrupted at once; the file was not saved", file=sys.stderr)
+        return 130
+    except (ValueError, OSError) as exc:
+        print(f"\nfactor_scene: error: {exc}", file=sys.stderr)
+        return 1
+    _report_and_save(args, result, scene, start)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""Tests for ``python -m spectral_materials factor`` (spectral_materials/cli.py)."""
+"""Tests for ``python -m spectral_materials factor`` (spectral_materials/cli/)."""
 
 from __future__ import annotations
 
@@ -166,6 +166,36 @@ def test_parse_spectrum(tmp_path):
         assert str(csv) in str(info.value)
     with pytest.raises(cli.UsageError):
         cli.parse_spectrum("nan")
+
+
+def test_csv_spectrum_has_every_check_of_the_addons_reader(tmp_path, monkeypatch):
+    """The CLI reads csv:PATH with core.colour.spectrum_library's reader, nothing of its own:
+    decimal commas, UTF-16, micrometres and the size limit behave as in the add-on."""
+    from spectral_materials.core.colour import spectrum_library
+
+    csv = tmp_path / "s.csv"
+    csv.write_text("400;0,25\n700;0,75\n")
+    assert cli.parse_spectrum(f"csv:{csv}")[1].tolist() == [0.25, 0.75]
+    csv.write_bytes("wl\tvalue\n400\t0.1\n700\t0.9\n".encode("utf-16"))
+    assert cli.parse_spectrum(f"csv:{csv}")[0].tolist() == [400.0, 700.0]
+    for text, content in (("0.4,0.1\n0.7,0.9\n", "micrometres"),
+                          ("400,0,25\n700,0,75\n", "decimal comma needs ';'")):
+        csv.write_text(text)
+        with pytest.raises(cli.UsageError, match=content):
+            cli.parse_spectrum(f"csv:{csv}")
+    monkeypatch.setattr(spectrum_library, "MAX_CSV_BYTES", 8)
+    csv.write_text("400,0.1\n700,0.9\n")
+    with pytest.raises(cli.UsageError, match="refused"):
+        cli.parse_spectrum(f"csv:{csv}")
+
+
+def test_one_progress_bar_and_the_parameterisations_of_the_core():
+    from spectral_materials.core.brdf.params import PARAMETERIZATIONS
+    from spectral_materials.core.progress import STAGE_STYLE, TerminalProgress
+
+    progress = cli.Progress(quiet=True)
+    assert isinstance(progress, TerminalProgress) and progress.style == STAGE_STYLE
+    assert sorted(cli.PARAMETERIZATION_CHOICES) == sorted(PARAMETERIZATIONS)
 
 
 def test_csv_spectrum_reaches_the_model(tmp_path, capsys):
