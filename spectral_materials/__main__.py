@@ -6,7 +6,7 @@ from .cli import main
 
 if __name__ == "__main__":
     code = main()
-    if "bpy" in sys.modules:         # it used Blender: see gpu_context.exit_process
+    if "bpy" in sys.modules:         # it used Blender: see blender.gpu.context.exit_process
         from .blender.gpu.context import exit_process
 
         exit_process(code)
