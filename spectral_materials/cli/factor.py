@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..core.brdf.params import PARAMETERIZATIONS
 from .arguments import basis_arg, int_in, positive_float
 from .common import Progress, UsageError, check_output_path
 from .factor_input import load_input
@@ -19,9 +20,10 @@ from .factor_report import (
 )
 
 DEFAULT_ILLUMINANTS = ("D65", "FL2")
-#: ``--parameterization``: the keys of ``core.brdf.params.PARAMETERIZATIONS`` (a test holds
-#: them equal), in the order the help lists them.
-PARAMETERIZATION_CHOICES = ("io", "hd", "gs", "ea", "io_iso", "hd_iso")
+#: ``--parameterization``: the keys of ``core.brdf.params.PARAMETERIZATIONS``, the
+#: anisotropic ones first (the order the help lists them: io, hd, gs, ea, io_iso, hd_iso).
+PARAMETERIZATION_CHOICES = tuple(sorted(PARAMETERIZATIONS,
+                                        key=lambda name: PARAMETERIZATIONS[name].isotropic))
 
 
 def _check_options(args) -> tuple[Path | None, Path | None, list[str]]:
