@@ -51,9 +51,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: Triangles whose doubled area is at most this fraction of their longest edge squared
-#: are degenerate (collinear to double precision) and dropped.
-DEGENERATE_RELATIVE_AREA = 1e-12
+from .raycast_input import (  # noqa: F401  (re-exported: importable from here as before)
+    DEGENERATE_RELATIVE_AREA,
+    CleanMesh,
+    _as_float,
+    _check_rays,
+    clean_mesh,
+    group_by_direction,
+)
+
 #: Directions with fewer rays than this skip the ``numpy`` grid (brute force instead).
 SMALL_GROUP = 8
 #: The ``numpy`` grid: cell side = this × mean projected triangle extent (0.35–0.5 did
@@ -128,83 +134,6 @@ def default_threads() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:                      # macOS, Windows
         return max(1, os.cpu_count() or 1)
-
-
-# ------------------------------------------------------------------ input checks
-
-
-@dataclass(frozen=True)
-class CleanMesh:
-    vertices: np.ndarray        # (N, 3) float64, C-contiguous
-    triangles: np.ndarray       # (T, 3) int64, no degenerate triangle
-    dropped: int                # degenerate triangles removed
-
-
-def clean_mesh(vertices, triangles) -> CleanMesh:
-    """Checked float64 vertices and int64 triangles without zero-area triangles."""
-    v = np.ascontiguousarray(vertices, dtype=np.float64)
-    if v.size == 0:
-        v = v.reshape(0, 3)
-    if v.ndim != 2 or v.shape[1] != 3:
-        raise ValueError(f"vertices must be (N, 3), got shape {v.shape}")
-    if not np.isfinite(v).all():
-        raise ValueError("vertices must be finite")
-    t = np.asarray(triangles)
-    if t.size == 0:
-        t = t.reshape(0, 3)
-    if t.ndim != 2 or t.shape[1] != 3:
-        raise ValueError(f"triangles must be (T, 3), got shape {t.shape}")
-    if t.size and not np.issubdtype(t.dtype, np.integer):
-        raise ValueError(f"triangles must hold integer vertex indices, got {t.dtype}")
-    t = np.ascontiguousarray(t, dtype=np.int64)
-    if t.size and (t.min() < 0 or t.max() >= len(v)):
-        raise ValueError(f"triangle indices must be 0..{len(v) - 1}")
-    if len(t):
-        a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
-        e1, e2, e3 = b - a, c - a, c - b
-        cross = np.stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
-                          e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
-                          e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]], axis=1)
-        longest = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
-        keep = np.sqrt(np.einsum("ij,ij->i", cross, cross)) > DEGENERATE_RELATIVE_AREA * longest
-        dropped = int(len(t) - np.count_nonzero(keep))
-        if dropped:
-            t = np.ascontiguousarray(t[keep])
-    else:
-        dropped = 0
-    return CleanMesh(v, t, dropped)
-
-
-def _as_float(values) -> np.ndarray:
-    """C-contiguous float32 or float64 (kept as given; anything else becomes float64)."""
-    array = np.asarray(values)
-    dtype = array.dtype if array.dtype in (np.float32, np.float64) else np.float64
-    return np.ascontiguousarray(array, dtype=dtype)
-
-
-def _check_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
-    o = _as_float(origins)
-    d = _as_float(directions)
-    if o.size == 0 and d.size == 0:
-        return o.reshape(0, 3), d.reshape(0, 3)
-    if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
-        raise ValueError(f"origins and directions must both be (R, 3), got {o.shape} "
-                         f"and {d.shape}")
-    if not (np.isfinite(o).all() and np.isfinite(d).all()):
-        raise ValueError("ray origins and directions must be finite")
-    return o, d
-
-
-def group_by_direction(directions: np.ndarray) -> list[np.ndarray]:
-    """Ray indices grouped by equal direction (exact duplicates; a lexicographic sort,
-    several times faster than ``np.unique(axis=0)``)."""
-    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    if len(d) == 0:
-        return []
-    order = np.lexsort((d[:, 2], d[:, 1], d[:, 0]))
-    ordered = d[order]
-    starts = np.flatnonzero(np.any(ordered[1:] != ordered[:-1], axis=1)) + 1
-    return np.split(order, starts)
 
 
 # --------------------------------------------------------------------- the API
@@ -316,6 +245,40 @@ def _expand(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return owner, rank
 
 
+def _cell_pairs(t: np.ndarray, first: np.ndarray, cnt: np.ndarray, order: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(triangle, origin) pairs: the j-th origin of every cell holding more than j, for
+    (triangle ``t``, cell whose origins start at ``first`` and number ``cnt``) entries."""
+    pt, po, live, j = [], [], np.arange(len(t)), 0
+    while len(live):
+        pt.append(t[live])
+        po.append(order[first[live] + j])
+        j += 1
+        live = live[cnt[live] > j]
+    return np.concatenate(pt), np.concatenate(po)
+
+
+def _hit_origins(tri: tuple, pt: np.ndarray, po: np.ndarray, qx: np.ndarray,
+                 qy: np.ndarray, qz: np.ndarray) -> np.ndarray:
+    """The origins of the (triangle ``pt``, origin ``po``) pairs whose triangle covers the
+    origin in the projected frame and lies ahead of it along d̂."""
+    ax, ay, az, bx, by, bz, cx, cy, cz, sign = tri
+    # Edge functions (inside ≥ 0 for either winding), dropping pairs as they fail.
+    px, py = qx[po], qy[po]
+    e0 = ((bx[pt] - px) * (cy[pt] - py) - (by[pt] - py) * (cx[pt] - px)) * sign[pt]
+    ok = np.flatnonzero(e0 >= 0.0)
+    pt, po, px, py, e0 = pt[ok], po[ok], px[ok], py[ok], e0[ok]
+    e1 = ((cx[pt] - px) * (ay[pt] - py) - (cy[pt] - py) * (ax[pt] - px)) * sign[pt]
+    ok = np.flatnonzero(e1 >= 0.0)
+    pt, po, px, py, e0, e1 = pt[ok], po[ok], px[ok], py[ok], e0[ok], e1[ok]
+    e2 = ((ax[pt] - px) * (by[pt] - py) - (ay[pt] - py) * (bx[pt] - px)) * sign[pt]
+    ok = np.flatnonzero(e2 >= 0.0)
+    pt, po, e0, e1, e2 = pt[ok], po[ok], e0[ok], e1[ok], e2[ok]
+    # Depth of the hit along d̂ (barycentric), ahead of the origin: t > 0.
+    depth = (e0 * az[pt] + e1 * bz[pt] + e2 * cz[pt]) / (e0 + e1 + e2)
+    return po[depth > qz[po]]
+
+
 def _grid_test(tri: tuple, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np.ndarray:
     """Occlusion of the origins (qx, qy, qz) in a projected frame by the projected
     triangles ``tri`` = (ax, ay, az, bx, by, bz, cx, cy, cz, sign of doubled area)."""
@@ -349,6 +312,7 @@ def _grid_test(tri: tuple, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np
     c1y = np.clip(((hiy - y0) / size).astype(np.int64), 0, ny - 1)
     height = c1y - c0y + 1
     cells = (c1x - c0x + 1) * height
+    kept = (ax, ay, az, bx, by, bz, cx, cy, cz, sign)
     # Triangles in batches of at most PAIR_BUDGET (triangle, cell) entries.
     ends = np.cumsum(cells)
     cuts = np.searchsorted(ends, np.arange(PAIR_BUDGET, int(ends[-1]), PAIR_BUDGET))
@@ -362,29 +326,8 @@ def _grid_test(tri: tuple, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np
         cnt = count[cell]
         nonempty = np.flatnonzero(cnt)
         t, first, cnt = t[nonempty], start[cell[nonempty]], cnt[nonempty]
-        # (triangle, origin) pairs: the j-th origin of every cell holding more than j.
-        pt, po, live, j = [], [], np.arange(len(t)), 0
-        while len(live):
-            pt.append(t[live])
-            po.append(order[first[live] + j])
-            j += 1
-            live = live[cnt[live] > j]
-        pt = np.concatenate(pt)
-        po = np.concatenate(po)
-        # Edge functions (inside ≥ 0 for either winding), dropping pairs as they fail.
-        px, py = qx[po], qy[po]
-        e0 = ((bx[pt] - px) * (cy[pt] - py) - (by[pt] - py) * (cx[pt] - px)) * sign[pt]
-        ok = np.flatnonzero(e0 >= 0.0)
-        pt, po, px, py, e0 = pt[ok], po[ok], px[ok], py[ok], e0[ok]
-        e1 = ((cx[pt] - px) * (ay[pt] - py) - (cy[pt] - py) * (ax[pt] - px)) * sign[pt]
-        ok = np.flatnonzero(e1 >= 0.0)
-        pt, po, px, py, e0, e1 = pt[ok], po[ok], px[ok], py[ok], e0[ok], e1[ok]
-        e2 = ((ax[pt] - px) * (by[pt] - py) - (ay[pt] - py) * (bx[pt] - px)) * sign[pt]
-        ok = np.flatnonzero(e2 >= 0.0)
-        pt, po, e0, e1, e2 = pt[ok], po[ok], e0[ok], e1[ok], e2[ok]
-        # Depth of the hit along d̂ (barycentric), ahead of the origin: t > 0.
-        depth = (e0 * az[pt] + e1 * bz[pt] + e2 * cz[pt]) / (e0 + e1 + e2)
-        out[po[depth > qz[po]]] = True
+        pt, po = _cell_pairs(t, first, cnt, order)
+        out[_hit_origins(kept, pt, po, qx, qy, qz)] = True
     return out
 
 
