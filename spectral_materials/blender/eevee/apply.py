@@ -66,30 +66,8 @@ def _output_node(tree):
     return (active or outputs or [None])[0]
 
 
-def apply_eevee(material, scene, *, light_object=None, measure: bool = False) -> dict:
-    """Add the EEVEE reconstruction to ``material``; returns node and sampler counts.
-
-    ``measure`` also computes the key-light term's ΔE94 against the 5 nm reference
-    (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
-    """
-    if material.spectral.result.image is None:
-        raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
-    model = storage.load_factored(material)
-    light_object = light_object or key_light(scene, material)
-    light = scene_lights.spectral_light(light_object)
-    white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
-    to_rgb = prefilter.scene_linear_matrix(white, working_space())
-    weights = prefilter.key_light_rgb_weights(model, light, to_rgb)
-    fit = prefilter.fit_principled(model, light, to_rgb)
-    objects = _objects_using(scene, material)
-    use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
-    image = material.spectral.result.image
-    image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
-    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit)
-    # Built under a scratch name and checked before anything of the material changes.
-    scratch_name = eevee_nodes.group_name(material) + " (building)"
-    group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv,
-                                    name=scratch_name)
+def _check_uniform_block(material, model, group) -> None:
+    """Remove the new ``group`` and raise if EEVEE could not link its node constants."""
     needed = eevee_nodes.uniform_bytes(group)
     if needed > eevee_nodes.UNIFORM_BLOCK_LIMIT:
         bpy.data.node_groups.remove(group)
@@ -100,8 +78,11 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
             f"magenta): factor it with at most {fits} packs"
             + (" or an isotropic (3-axis) parameterisation"
                if len(model.grid.shape) == 4 else ""))
-    remove_eevee(material, scene)                # re-applying replaces the previous nodes
-    group.name = eevee_nodes.group_name(material)
+
+
+def _add_frame(material, group) -> tuple:
+    """Add the frame of the group node, Emission, Principled and Add Shader beside the
+    user's nodes and link it to the material output; (output node, its previous link)."""
     compat.ensure_node_tree(material)
     tree = material.node_tree
     output = _output_node(tree)
@@ -137,6 +118,37 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     links.new(nodes["ShaderNodeEmission"].outputs[0], nodes["ShaderNodeAddShader"].inputs[0])
     links.new(principled.outputs[0], nodes["ShaderNodeAddShader"].inputs[1])
     links.new(nodes["ShaderNodeAddShader"].outputs[0], surface)
+    return output, original
+
+
+def apply_eevee(material, scene, *, light_object=None, measure: bool = False) -> dict:
+    """Add the EEVEE reconstruction to ``material``; returns node and sampler counts.
+
+    ``measure`` also computes the key-light term's ΔE94 against the 5 nm reference
+    (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
+    """
+    if material.spectral.result.image is None:
+        raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
+    model = storage.load_factored(material)
+    light_object = light_object or key_light(scene, material)
+    light = scene_lights.spectral_light(light_object)
+    white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
+    to_rgb = prefilter.scene_linear_matrix(white, working_space())
+    weights = prefilter.key_light_rgb_weights(model, light, to_rgb)
+    fit = prefilter.fit_principled(model, light, to_rgb)
+    objects = _objects_using(scene, material)
+    use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
+    image = material.spectral.result.image
+    image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
+    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit)
+    # Built under a scratch name and checked before anything of the material changes.
+    scratch_name = eevee_nodes.group_name(material) + " (building)"
+    group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv,
+                                    name=scratch_name)
+    _check_uniform_block(material, model, group)
+    remove_eevee(material, scene)                # re-applying replaces the previous nodes
+    group.name = eevee_nodes.group_name(material)
+    output, original = _add_frame(material, group)
     previous_receivers = _exclude_from_light(light_object, objects)
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
@@ -320,6 +332,77 @@ class _Scratch:
         self.blocks.clear()
 
 
+def _add_sphere(scratch: _Scratch, model):
+    """A smooth UV sphere without UVs (so the tangent field is the protocol's) with a
+    material holding ``model``'s factors; (object, material)."""
+    import bmesh
+
+    mesh = scratch.add("meshes", bpy.data.meshes.new("SM EEVEE sphere"))
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=SPHERE_SEGMENTS,
+                              v_segments=SPHERE_SEGMENTS // 2, radius=1.0, calc_uvs=False)
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.shade_smooth()
+    sphere = scratch.add("objects", bpy.data.objects.new("SM EEVEE sphere", mesh))
+    material = scratch.add("materials", bpy.data.materials.new("SM EEVEE sphere"))
+    material.spectral.enabled = True
+    mesh.materials.append(material)
+    storage.store_factored(material, model)
+    scratch.add("images", material.spectral.result.image)
+    if material.spectral.result.plot is not None:
+        scratch.add("images", material.spectral.result.plot)
+    return sphere, material
+
+
+def _add_sun_and_camera(scratch: _Scratch, incidence_deg: float, illuminant: str):
+    """A sun of strength 1 in ``illuminant`` at ``incidence_deg`` from +z in the xz plane,
+    and an orthographic camera down −z framing the unit sphere; (sun, camera)."""
+    from mathutils import Vector
+
+    light_data = scratch.add("lights", bpy.data.lights.new("SM EEVEE sun", "SUN"))
+    light_data.energy = 1.0
+    light_data.spectral.illuminant = illuminant
+    sun = scratch.add("objects", bpy.data.objects.new("SM EEVEE sun", light_data))
+    alpha = math.radians(float(incidence_deg))
+    sun.rotation_euler = Vector((math.sin(alpha), 0.0, math.cos(alpha))).to_track_quat(
+        "Z", "Y").to_euler()
+    camera_data = scratch.add("cameras", bpy.data.cameras.new("SM EEVEE camera"))
+    camera_data.type = "ORTHO"
+    camera_data.ortho_scale = 2.0
+    camera = scratch.add("objects", bpy.data.objects.new("SM EEVEE camera", camera_data))
+    camera.location = (0.0, 0.0, 5.0)
+    return sun, camera
+
+
+def _render_rgb(scene, size: int, samples: int) -> tuple[np.ndarray, float]:
+    """Render ``scene`` with EEVEE (Standard view, no look) to a float EXR; (RGB, seconds)."""
+    import tempfile
+    import time
+    from pathlib import Path
+
+    from ...core.formats.exr import read_exr
+
+    render = scene.render
+    render.engine = compat.EEVEE_ENGINE
+    render.resolution_x = render.resolution_y = size
+    render.resolution_percentage = 100
+    render.filter_size = 0.0
+    scene.eevee.taa_render_samples = samples
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    render.image_settings.file_format = "OPEN_EXR"
+    render.image_settings.color_depth = "32"
+    with tempfile.TemporaryDirectory() as folder:
+        render.filepath = str(Path(folder) / "sphere.exr")
+        start = time.perf_counter()
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+        seconds = time.perf_counter() - start
+        channels, _ = read_exr(Path(folder) / "sphere.exr")
+    return np.stack([channels[c] for c in "RGB"], axis=-1), seconds
+
+
 def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D65",
                         size: int = 256, *, samples: int = 1) -> tuple[np.ndarray, dict]:
     """The protocol sphere rendered by EEVEE through the node group: (XYZ (size, size, 3)
@@ -330,14 +413,6 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
     ``illuminant``; a black world) and removed afterwards; the file's working colour
     space is Rec.2020 during the render and restored after it.
     """
-    import tempfile
-    import time
-    from pathlib import Path
-
-    import bmesh
-    from mathutils import Vector
-
-    from ...core.formats.exr import read_exr
     from ..gpu.offscreen import check_size
 
     check_size(size, size)
@@ -346,33 +421,8 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
     scene = scratch.add("scenes", bpy.data.scenes.new("SM EEVEE sphere"))
     material = None
     try:
-        mesh = scratch.add("meshes", bpy.data.meshes.new("SM EEVEE sphere"))
-        bm = bmesh.new()
-        bmesh.ops.create_uvsphere(bm, u_segments=SPHERE_SEGMENTS,
-                                  v_segments=SPHERE_SEGMENTS // 2, radius=1.0, calc_uvs=False)
-        bm.to_mesh(mesh)
-        bm.free()
-        mesh.shade_smooth()
-        sphere = scratch.add("objects", bpy.data.objects.new("SM EEVEE sphere", mesh))
-        material = scratch.add("materials", bpy.data.materials.new("SM EEVEE sphere"))
-        material.spectral.enabled = True
-        mesh.materials.append(material)
-        storage.store_factored(material, model)
-        scratch.add("images", material.spectral.result.image)
-        if material.spectral.result.plot is not None:
-            scratch.add("images", material.spectral.result.plot)
-        light_data = scratch.add("lights", bpy.data.lights.new("SM EEVEE sun", "SUN"))
-        light_data.energy = 1.0
-        light_data.spectral.illuminant = illuminant
-        sun = scratch.add("objects", bpy.data.objects.new("SM EEVEE sun", light_data))
-        alpha = math.radians(float(incidence_deg))
-        sun.rotation_euler = Vector((math.sin(alpha), 0.0, math.cos(alpha))).to_track_quat(
-            "Z", "Y").to_euler()
-        camera_data = scratch.add("cameras", bpy.data.cameras.new("SM EEVEE camera"))
-        camera_data.type = "ORTHO"
-        camera_data.ortho_scale = 2.0
-        camera = scratch.add("objects", bpy.data.objects.new("SM EEVEE camera", camera_data))
-        camera.location = (0.0, 0.0, 5.0)
+        sphere, material = _add_sphere(scratch, model)
+        sun, camera = _add_sun_and_camera(scratch, incidence_deg, illuminant)
         for obj in (sphere, sun, camera):
             scene.collection.objects.link(obj)
         scene.camera = camera
@@ -383,24 +433,7 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
         if previous_space != space:
             bpy.ops.wm.set_working_color_space(working_space=space, convert_colors=False)
         counts = apply_eevee(material, scene, light_object=sun)
-        render = scene.render
-        render.engine = compat.EEVEE_ENGINE
-        render.resolution_x = render.resolution_y = size
-        render.resolution_percentage = 100
-        render.filter_size = 0.0
-        scene.eevee.taa_render_samples = samples
-        scene.view_settings.view_transform = "Standard"
-        scene.view_settings.look = "None"
-        scene.view_settings.exposure = 0.0
-        render.image_settings.file_format = "OPEN_EXR"
-        render.image_settings.color_depth = "32"
-        with tempfile.TemporaryDirectory() as folder:
-            render.filepath = str(Path(folder) / "sphere.exr")
-            start = time.perf_counter()
-            bpy.ops.render.render(write_still=True, scene=scene.name)
-            seconds = time.perf_counter() - start
-            channels, _ = read_exr(Path(folder) / "sphere.exr")
-        rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
+        rgb, seconds = _render_rgb(scene, size, samples)
         xyz = scene_linear_to_xyz(rgb, scene.spectral.adaptation_white, space)
         return xyz, {"seconds": seconds, "working_space": space, **counts}
     finally:

@@ -287,6 +287,79 @@ def _frame_and_light(g: Graph, key: KeyLight, use_uv_tangent: bool):
     return wi, wo, irradiance, lit
 
 
+def _empty_group(name: str):
+    """The node group ``name``, created or emptied, with the four outputs."""
+    group = bpy.data.node_groups.get(name)
+    if group is None:
+        group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.nodes.clear()
+    group.interface.clear()
+    group.interface.new_socket("Key light", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Base Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Roughness", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    group.interface.new_socket("IOR", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    return group
+
+
+def _axis_lookups(g: Graph, model: FactoredBRDF, coords, base: int) -> list:
+    """(lower texel, upper texel, weight) of each angular axis (constants on 1-cell axes)."""
+    lookups = []
+    g.begin("Axis lookups")
+    for k, (axis, cells) in enumerate(zip(model.grid.parameterization.axes, model.grid.shape)):
+        if cells == 1:
+            lookups.append((0.0, 0.0, 0.0))
+        else:
+            lookups.append(_axis_lookup(g, coords[k], axis, cells, model.edge == "clamp",
+                                        base, k))
+    return lookups
+
+
+def _pack_rgb(g: Graph, image, lookups: list, pack: int, groups: int, weights: np.ndarray,
+              base: int):
+    """One pack's four terms: the product of its axis texels, weighted into key-light RGB."""
+    width, height = image.size
+    colour = alpha = None
+    for k, (i0, i1, w) in enumerate(lookups):
+        v = (k * groups + pack + 0.5) / height
+        texels = []
+        for index in (i0, i1):
+            u = g.math("DIVIDE", g.math("ADD", index, 0.5, column=base), float(width),
+                       column=base + 1)
+            node = g.node("ShaderNodeTexImage", base + 2, f"axis {k} texel",
+                          interpolation="Closest", extension="EXTEND")
+            node.image = image
+            g.feed(node.inputs["Vector"], g.combine(u, v, 0.0, column=base + 1))
+            texels.append(node)
+        c = g.lerp(texels[0].outputs["Color"], texels[1].outputs["Color"], w,
+                   column=base + 3, vector=True)
+        a = g.lerp(texels[0].outputs["Alpha"], texels[1].outputs["Alpha"], w,
+                   column=base + 3, vector=False)
+        colour = c if colour is None else g.vmath("MULTIPLY", colour, c, column=base + 4)
+        alpha = a if alpha is None else g.math("MULTIPLY", alpha, a, column=base + 4)
+    r, gg, bb = g.separate(colour, column=base + 5)
+    pack_rgb = None
+    for term, amount in enumerate((r, gg, bb, alpha)):
+        scaled = g.vmath("SCALE", tuple(weights[4 * pack + term]), scale=amount,
+                         column=base + 6)
+        pack_rgb = scaled if pack_rgb is None else g.vmath("ADD", pack_rgb, scaled,
+                                                           column=base + 7)
+    return pack_rgb
+
+
+def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
+    """The Principled inputs fitted under the key light (for the other lights)."""
+    colour = g.node("ShaderNodeRGB", base + 11, "diffuse colour (fit)")
+    colour.outputs[0].default_value = (*map(float, fit["base_color"]), 1.0)
+    group.links.new(colour.outputs[0], output.inputs["Base Color"])
+    # Principled's dielectric F0 = ((n − 1)/(n + 1))²: the IOR that gives the fitted F0.
+    root = math.sqrt(min(max(fit["specular"], 1e-6), 0.8))
+    for socket, label, value in (("Roughness", "roughness (fit)", fit["roughness"]),
+                                 ("IOR", "IOR of the fitted F0", (1.0 + root) / (1.0 - root))):
+        node = g.node("ShaderNodeValue", base + 11, label)
+        node.outputs[0].default_value = float(value)
+        group.links.new(node.outputs[0], output.inputs[socket])
+
+
 def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
                 use_uv_tangent: bool = False, name: str | None = None):
     """(Re)write the node group ``name`` (default: the material's); returns it.
@@ -300,65 +373,22 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
                          "refactor with one of them")
     if model.form != "cp":
         raise ValueError(f"Material '{material.name}': only CP factor packs have an EEVEE path")
-    name = name or group_name(material)
-    group = bpy.data.node_groups.get(name)
-    if group is None:
-        group = bpy.data.node_groups.new(name, "ShaderNodeTree")
-    group.nodes.clear()
-    group.interface.clear()
-    group.interface.new_socket("Key light", in_out="OUTPUT", socket_type="NodeSocketColor")
-    group.interface.new_socket("Base Color", in_out="OUTPUT", socket_type="NodeSocketColor")
-    group.interface.new_socket("Roughness", in_out="OUTPUT", socket_type="NodeSocketFloat")
-    group.interface.new_socket("IOR", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    group = _empty_group(name or group_name(material))
     g = Graph(group)
     wi, wo, irradiance, lit = _frame_and_light(g, key, use_uv_tangent)
     base = 14
     g.begin(f"Coordinates ({parameterization})")
     coords = _coordinates(g, parameterization, wi, wo, base)
     base += 12
-    axes = model.grid.parameterization.axes
-    shape = model.grid.shape
-    lookups = []
-    g.begin("Axis lookups")
-    for k, (axis, cells) in enumerate(zip(axes, shape)):
-        if cells == 1:
-            lookups.append((0.0, 0.0, 0.0))
-        else:
-            lookups.append(_axis_lookup(g, coords[k], axis, cells, model.edge == "clamp",
-                                        base, k))
+    lookups = _axis_lookups(g, model, coords, base)
     base += 10
-    width, height = image.size
     groups = -(-model.terms // 4)
     weights = np.zeros((groups * 4, 3))
     weights[: model.terms] = key.weights
     total = None
     for pack in range(groups):
         g.begin(f"Pack {pack + 1}")
-        colour = alpha = None
-        for k, (i0, i1, w) in enumerate(lookups):
-            v = (k * groups + pack + 0.5) / height
-            texels = []
-            for index in (i0, i1):
-                u = g.math("DIVIDE", g.math("ADD", index, 0.5, column=base), float(width),
-                           column=base + 1)
-                node = g.node("ShaderNodeTexImage", base + 2, f"axis {k} texel",
-                              interpolation="Closest", extension="EXTEND")
-                node.image = image
-                g.feed(node.inputs["Vector"], g.combine(u, v, 0.0, column=base + 1))
-                texels.append(node)
-            c = g.lerp(texels[0].outputs["Color"], texels[1].outputs["Color"], w,
-                       column=base + 3, vector=True)
-            a = g.lerp(texels[0].outputs["Alpha"], texels[1].outputs["Alpha"], w,
-                       column=base + 3, vector=False)
-            colour = c if colour is None else g.vmath("MULTIPLY", colour, c, column=base + 4)
-            alpha = a if alpha is None else g.math("MULTIPLY", alpha, a, column=base + 4)
-        r, gg, bb = g.separate(colour, column=base + 5)
-        pack_rgb = None
-        for term, amount in enumerate((r, gg, bb, alpha)):
-            scaled = g.vmath("SCALE", tuple(weights[4 * pack + term]), scale=amount,
-                             column=base + 6)
-            pack_rgb = scaled if pack_rgb is None else g.vmath("ADD", pack_rgb, scaled,
-                                                               column=base + 7)
+        pack_rgb = _pack_rgb(g, image, lookups, pack, groups, weights, base)
         total = pack_rgb if total is None else g.vmath("ADD", total, pack_rgb, column=base + 8)
     g.begin("Key light radiance")
     scale = g.math("MULTIPLY", g.math("MULTIPLY", irradiance, lit, column=base + 9),
@@ -367,17 +397,7 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     g.begin("Other lights: Lambert + GGX fitted under the key light's spectrum")
     output = g.node("NodeGroupOutput", base + 12)
     group.links.new(radiance, output.inputs["Key light"])
-    fit = key.fit
-    colour = g.node("ShaderNodeRGB", base + 11, "diffuse colour (fit)")
-    colour.outputs[0].default_value = (*map(float, fit["base_color"]), 1.0)
-    group.links.new(colour.outputs[0], output.inputs["Base Color"])
-    # Principled's dielectric F0 = ((n − 1)/(n + 1))²: the IOR that gives the fitted F0.
-    root = math.sqrt(min(max(fit["specular"], 1e-6), 0.8))
-    for socket, label, value in (("Roughness", "roughness (fit)", fit["roughness"]),
-                                 ("IOR", "IOR of the fitted F0", (1.0 + root) / (1.0 - root))):
-        node = g.node("ShaderNodeValue", base + 11, label)
-        node.outputs[0].default_value = float(value)
-        group.links.new(node.outputs[0], output.inputs[socket])
+    _fitted_outputs(g, group, output, key.fit, base)
     return group
 
 
