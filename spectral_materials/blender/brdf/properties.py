@@ -18,6 +18,7 @@ from bpy.props import (
     StringProperty,
 )
 
+from ...core.brdf.params import PARAMETERIZATIONS
 from ..ui.spectrum import SPECTRAL_PG_spectrum
 
 MODEL_ITEMS = [
@@ -34,17 +35,18 @@ MODEL_ITEMS = [
 MODEL_KEYS = {"LAMBERT": "lambert", "OREN_NAYAR": "oren_nayar",
               "ASHIKHMIN_SHIRLEY": "ashikhmin_shirley", "WARD": "ward", "GGX": "ggx"}
 
+#: The parameterisations offered, from the one list of them (core/brdf/params.py); the
+#: isotropic variants are not offered: the BRDF chooses them. Identifiers are the names
+#: upper-cased, in the list's order after "AUTO", so stored enum values stay where they were.
+_OFFERED = [p for p in PARAMETERIZATIONS.values() if not p.isotropic]
 PARAMETERIZATION_ITEMS = [
     ("AUTO", "Automatic", "Half/difference angles for anisotropic glossy models "
      "(Ashikhmin–Shirley, Ward, GGX), input/output angles otherwise; the isotropic 3-axis "
      "layout when the BRDF is isotropic"),
-    ("IO", "Input/output angles", "(θi, φi, θo, φo); (θi, φo−φi, θo) when isotropic"),
-    ("HD", "Half/difference", "Rusinkiewicz (θh, φh, θd, φd), θh square-root warped; "
-     "best for sharp highlights"),
-    ("GS", "Gram–Schmidt half vector", "Kautz–McCool's half-vector frame"),
-    ("EA", "Elevation/azimuth", "Elevation/azimuth of both directions"),
+    *((p.name.upper(), p.label, p.summary) for p in _OFFERED),
 ]
-PARAMETERIZATION_KEYS = {"AUTO": "io", "IO": "io", "HD": "hd", "GS": "gs", "EA": "ea"}
+#: Property enum identifier → parameterisation name (sources.py resolves AUTO per BRDF).
+PARAMETERIZATION_KEYS = {"AUTO": "io", **{p.name.upper(): p.name for p in _OFFERED}}
 
 
 class SPECTRAL_PG_result(bpy.types.PropertyGroup):

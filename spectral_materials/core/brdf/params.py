@@ -311,6 +311,10 @@ class Parameterization:
     default_resolution: tuple[int, ...] = ()
     split: tuple[tuple[int, ...], tuple[int, ...]] = ((), ())
     isotropic: bool = False
+    #: How the add-on's panel names it and says what it is for (isotropic variants are
+    #: chosen by the BRDF, not listed there: empty).
+    label: str = ""
+    summary: str = ""
     #: ``inverse`` accepts directions with z >= -horizon_tolerance as above the horizon.
     horizon_tolerance: float = VALID_EPS
 
@@ -394,6 +398,8 @@ class IOParameterization(Parameterization):
     """Incoming/outgoing spherical angles (θi, φi, θo, φo)."""
 
     name = "io"
+    label = "Input/output angles"
+    summary = "(θi, φi, θo, φo); (θi, φo−φi, θo) when isotropic"
     axes = (_theta_axis("theta_i"), _phi_axis("phi_i"), _theta_axis("theta_o"), _phi_axis("phi_o"))
     default_resolution = (90, 180, 90, 180)
     split = ((0, 1), (2, 3))
@@ -435,6 +441,8 @@ class EAParameterization(Parameterization):
     against azimuths."""
 
     name = "ea"
+    label = "Elevation/azimuth"
+    summary = "Elevation/azimuth of both directions"
     axes = (_theta_axis("theta_i"), _theta_axis("theta_o"), _phi_axis("phi_i"), _phi_axis("phi_o"))
     default_resolution = (90, 90, 180, 180)
     split = ((0, 1), (2, 3))
@@ -486,6 +494,8 @@ class HDParameterization(Parameterization):
     """Rusinkiewicz half/difference angles (θh, φh, θd, φd); θh is sqrt-warped."""
 
     name = "hd"
+    label = "Half/difference"
+    summary = "Rusinkiewicz (θh, φh, θd, φd), θh square-root warped; best for sharp highlights"
     axes = (
         _theta_axis("theta_h", warp="sqrt"),
         _phi_axis("phi_h"),
@@ -554,6 +564,8 @@ class GSParameterization(Parameterization):
     """
 
     name = "gs"
+    label = "Gram–Schmidt half vector"
+    summary = "Kautz–McCool's half-vector frame"
     axes = (
         Axis("h_t", -1.0, 1.0, periodic=False),
         Axis("h_s", -1.0, 1.0, periodic=False),
