@@ -68,14 +68,6 @@ def test_pack_writes_each_field_at_its_offset_and_refuses_mismatches():
         block.pack(**dict(values, b=(1, 2)))
 
 
-@pytest.mark.parametrize("block", [gpu_material.PARAMS, prt_drawer.PARAMS, btf_drawer.PARAMS],
-                         ids=lambda b: b.name)
-def test_parameter_blocks_are_vec4_and_mat4_only(block):
-    """All three blocks need no padding: their offsets are the running sums."""
-    assert all(f.glsl_type in ("vec4", "ivec4", "mat4") and not f.length for f in block.fields)
-    assert block.size == sum(f.size for f in block.fields)
-
-
 def _display() -> DisplaySettings:
     return DisplaySettings(scene_white=(0.95, 1.0, 1.09), exposure=1.3, tone_white=3.5)
 
