@@ -1,7 +1,7 @@
 /* Mirror: none (the RGB baseline of the draw benchmark) */
-/* Baseline for scripts/bench_draw.py: an RGB Blinn–Phong surface lit by BP_LIGHTS
- * lights, drawn on the same mesh as the spectral shader so that frame times can be
- * stated as ratios (shared/PROTOCOL.md, "Time and memory").
+/* Baseline of the draw benchmark (benchmarks/draw.py): an RGB Blinn–Phong surface lit
+ * by BP_LIGHTS lights, drawn on the same mesh as the spectral shader so that frame times
+ * can be stated as ratios (shared/PROTOCOL.md, "Time and memory").
  *
  * Per light: a sun (light_position.w = 0, xyz = unit direction toward the light,
  * irradiance 1) or a point light (w = 1, xyz = position, irradiance 1 / (4π r²));

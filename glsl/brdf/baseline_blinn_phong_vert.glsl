@@ -1,7 +1,8 @@
 /* Mirror: none (the RGB baseline of the draw benchmark) */
-/* Baseline for scripts/bench_draw.py: the mesh stage of an RGB Blinn–Phong shader,
- * the same work as mesh_vert.glsl (world position and normal, clip position). The
- * parameter block `bp` (BpParams) is declared by the script, next to its packing. */
+/* Baseline of the draw benchmark (benchmarks/draw.py): the mesh stage of an RGB
+ * Blinn–Phong shader, the same work as mesh_vert.glsl (world position and normal, clip
+ * position). The parameter block `bp` (BpParams) is declared by
+ * benchmarks/draw_baseline.py, next to its packing. */
 
 void main()
 {
