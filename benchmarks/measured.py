@@ -31,7 +31,7 @@ import numpy as np
 from spectral_materials.core.brdf import metrics, models
 from spectral_materials.core.brdf.factor import factor_brdf_series
 from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour import spectra, uplift
 from spectral_materials.core.formats import merl
 
 from . import harness
@@ -58,7 +58,7 @@ class RGBModel:
         self.rd = np.asarray(rd_rgb, dtype=np.float64)
         self.one = models.AshikhminShirley(nu=32, nv=32, diffuse=1.0, specular=0.05)
         self.zero = models.AshikhminShirley(nu=32, nv=32, diffuse=0.0, specular=0.05)
-        self.smits = merl.SmitsUplift()
+        self.smits = uplift.SmitsUplift()
 
     def rgb(self, wi, wo):
         s = self.zero(wi, wo, np.array([550.0]))
