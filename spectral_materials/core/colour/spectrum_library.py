@@ -21,30 +21,55 @@ References
 ----------
 CIE 015:2018 Colorimetry, 4th ed., §9.6 (Planck's law, c₂ = 1.4388 × 10⁻² m·K), as
 implemented by ``colour.colorimetry.planck_law`` in colour-science 0.4.6.
+
+Typed text is parsed in :mod:`.spectrum_text`; blackbodies, the checks and the resampling
+live in :mod:`.spectrum_checks`. Their names are re-exported here; the CSV reader stays
+here (its limits are read from this module).
 """
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from collections.abc import Iterator
 
 import numpy as np
-from colour.colorimetry import planck_law
-from numpy.typing import ArrayLike
 
-from ..sample_limits import MAX_SAMPLE, WAVELENGTH_LIMITS_NM
-from . import spectra
+from ..sample_limits import MAX_SAMPLE, WAVELENGTH_LIMITS_NM  # noqa: F401  (importable as before)
+from .spectrum_checks import (
+    BLACKBODY_LIMITS_K,
+    BLACKBODY_NORMALISATION_NM,
+    blackbody_spd,
+    check_reflectance,
+    check_spd,
+    spectrum_to_grid,
+)
+from .spectrum_text import (
+    MAX_TEXT_CHARS,
+    TEXT_RANGE_NM,
+    TEXT_WAVELENGTH_LIMITS_NM,
+    _number_or_raise,
+    _parse_number,
+    _shown,
+    parse_spectrum_text,
+)
 
-#: The visible range that a plain list of typed values is spread over, in nm.
-TEXT_RANGE_NM = (380.0, 780.0)
-
-#: Wavelengths typed as ``wl:value`` pairs must lie in this range (nm).
-TEXT_WAVELENGTH_LIMITS_NM = (300.0, 900.0)
-
-#: Longest spectrum text accepted, in characters.
-MAX_TEXT_CHARS = 1_000_000
+__all__ = [
+    "BLACKBODY_LIMITS_K",
+    "BLACKBODY_NORMALISATION_NM",
+    "MAX_CSV_BYTES",
+    "MAX_CSV_ROWS",
+    "MAX_TEXT_CHARS",
+    "TEXT_RANGE_NM",
+    "TEXT_WAVELENGTH_LIMITS_NM",
+    "SpectrumFileError",
+    "blackbody_spd",
+    "check_reflectance",
+    "check_spd",
+    "parse_spectrum_text",
+    "read_spectrum_csv",
+    "spectrum_to_grid",
+]
 
 #: Largest spectrum CSV file read, in bytes (10 MB).
 MAX_CSV_BYTES = 10 * 1024 * 1024
@@ -53,147 +78,15 @@ MAX_CSV_BYTES = 10 * 1024 * 1024
 #: (the same cap as ``formats.tabulated.MAX_WAVELENGTHS``).
 MAX_CSV_ROWS = 100_000
 
-#: Blackbody temperatures accepted by :func:`blackbody_spd`, in K.
-BLACKBODY_LIMITS_K = (500.0, 1.0e6)
-
-#: :func:`blackbody_spd` is 1 at this wavelength (nm).
-BLACKBODY_NORMALISATION_NM = 560.0
-
-# A plain decimal number, ASCII digits only (``float`` alone would accept "nan",
-# "1_000" and non-ASCII digits such as "١٢"). The fraction needs its point, so a run of
-# digits can be matched one way only: "[0-9]+\.?[0-9]*" backtracked quadratically on a
-# long run of digits that is not a number (100,000 digits: minutes).
-_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
-# A text token: a ``wl:value`` pair (spaces allowed around the colon) or a bare value.
-_TEXT_TOKEN = re.compile(r"[^\s,;:]*[ \t]*:[ \t]*[^\s,;:]*|[^\s,;]+")
 # The line boundaries of ``str.splitlines``.
 _LINE_BREAK = re.compile(r"\r\n|[\n\r\v\f\x1c\x1d\x1e\x85\u2028\u2029]")
 # Fields split off one line at most: enough to tell two from "too many".
 _MAX_SPLIT = 8
-# Characters of a token quoted in a message.
-_SHOWN_CHARS = 40
 
 
 class SpectrumFileError(ValueError):
     """A spectrum file cannot be used; the message names the file (and line) and why."""
 
-
-def _shown(token: str) -> str:
-    """``repr`` of a token for a message, cut short: a token can be megabytes long."""
-    if len(token) <= _SHOWN_CHARS:
-        return repr(token)
-    return repr(token[:_SHOWN_CHARS]) + f"… ({len(token):,} characters)"
-
-
-def _parse_number(token: str) -> float | None:
-    """The value of a plain decimal number, ``nan`` for a non-finite one, else ``None``."""
-    if _NUMBER.fullmatch(token):
-        value = float(token)
-        return value if math.isfinite(value) else math.nan  # "1e999" overflows to inf
-    try:
-        float(token)
-    except ValueError:
-        return None
-    return math.nan if token.strip().lower().lstrip("+-") in {"nan", "inf", "infinity"} else None
-
-
-def _number_or_raise(token: str, what: str, error: type[ValueError] = ValueError) -> float:
-    value = _parse_number(token)
-    if value is None:
-        raise error(f"{what}: {_shown(token)} is not a number")
-    if math.isnan(value):
-        raise error(f"{what}: {_shown(token)} is not finite (NaN and inf are not allowed)")
-    if abs(value) > MAX_SAMPLE:
-        raise error(f"{what}: {_shown(token)} is beyond ±{MAX_SAMPLE:g}; no spectrum holds "
-                    "such values (sample_limits)")
-    return value
-
-
-def parse_spectrum_text(text: str) -> tuple[np.ndarray, np.ndarray]:
-    """Parse a spectrum typed into a text field → ``(wavelengths_nm, values)``.
-
-    Two styles are accepted, not mixed:
-
-    * ``"wl:value, wl:value, ..."`` pairs, wavelengths in nm, strictly increasing and
-      within :data:`TEXT_WAVELENGTH_LIMITS_NM` (300–900 nm). Spaces around ``:`` are
-      allowed; a single pair is a one-sample spectrum (constant once resampled).
-    * a plain list of values, spread evenly over :data:`TEXT_RANGE_NM` (380–780 nm):
-      ``N ≥ 2`` values sit at ``linspace(380, 780, N)`` (two values make a linear
-      ramp); a single value is a constant, returned as two samples at 380 and 780 nm.
-
-    Tokens are separated by commas, semicolons and/or white space. Numbers are plain
-    ASCII decimals (``0.5``, ``-1``, ``4.5e2``). Values beyond ±10³⁰ are refused (no
-    spectrum holds them; see :mod:`spectral_materials.core.sample_limits`); other ranges are
-    not checked here: use :func:`check_reflectance` or :func:`check_spd`.
-
-    Parameters
-    ----------
-    text
-        The typed text.
-
-    Returns
-    -------
-    wavelengths, values
-        1-D float64 arrays of equal length.
-
-    Raises
-    ------
-    ValueError
-        Empty text; a token that is not a number, NaN/inf or beyond ±10³⁰ (the message
-        gives the token, its number and its character position); wavelengths not strictly
-        increasing or outside 300–900 nm; the two styles mixed.
-
-    Examples
-    --------
-    >>> parse_spectrum_text("400:0.1, 550:0.8, 700:0.3")[1]
-    array([0.1, 0.8, 0.3])
-    >>> parse_spectrum_text("0.2 0.6")[0]
-    array([380., 780.])
-    """
-    if not isinstance(text, str):
-        raise ValueError(f"spectrum text must be a string, got {type(text).__name__}")
-    if len(text) > MAX_TEXT_CHARS:
-        raise ValueError(f"spectrum text is too long ({len(text)} characters, "
-                         f"at most {MAX_TEXT_CHARS})")
-    paired: bool | None = None  # set by the first token
-    wavelengths: list[float] = []
-    values: list[float] = []
-    for index, match in enumerate(_TEXT_TOKEN.finditer(text), start=1):
-        token = match.group()
-        if paired is None:
-            paired = ":" in token
-        where = f"token {index} {_shown(token)} at character {match.start() + 1}"
-        if (":" in token) != paired:
-            first = "wavelength:value pairs" if paired else "plain values"
-            raise ValueError(f"{where}: the text starts with {first}; use one style only, "
-                             "either all 'wl:value' pairs or all plain values")
-        if not paired:
-            values.append(_number_or_raise(token, where))
-            continue
-        wl_text, value_text = (part.strip() for part in token.split(":", 1))
-        if not wl_text or not value_text:
-            raise ValueError(f"{where}: a pair needs both a wavelength and a value, "
-                             "as in '550:0.4'")
-        wl = _number_or_raise(wl_text, f"{where}, wavelength")
-        value = _number_or_raise(value_text, f"{where}, value")
-        low, high = TEXT_WAVELENGTH_LIMITS_NM
-        if not low <= wl <= high:
-            raise ValueError(f"{where}: wavelength {wl:g} nm is outside {low:g}–{high:g} nm")
-        if wavelengths and wl <= wavelengths[-1]:
-            raise ValueError(f"{where}: wavelength {wl:g} nm does not increase from "
-                             f"{wavelengths[-1]:g} nm; list wavelengths in increasing "
-                             "order, each once")
-        wavelengths.append(wl)
-        values.append(value)
-
-    if paired is None:
-        raise ValueError("spectrum text is empty: type values such as '0.2, 0.5, 0.8' "
-                         "or wavelength:value pairs such as '400:0.2, 700:0.8'")
-    if paired:
-        return np.asarray(wavelengths, dtype=np.float64), np.asarray(values, dtype=np.float64)
-    if len(values) == 1:
-        values = values * 2
-    return np.linspace(*TEXT_RANGE_NM, len(values)), np.asarray(values, dtype=np.float64)
 
 
 def _decode(raw: bytes, label: str) -> str:
@@ -380,146 +273,3 @@ def read_spectrum_csv(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
                                 "monotonic")
     _check_csv_wavelengths(wl, label)
     return wl, values
-
-
-def blackbody_spd(temperature_k: float,
-                  wavelengths: ArrayLike = spectra.WAVELENGTHS_REFERENCE) -> np.ndarray:
-    """Relative SPD of a blackbody (Planck's law), 1 at 560 nm → array (L,).
-
-    Computed with ``colour.colorimetry.planck_law`` (CIE 015:2018 constants,
-    c₂ = 1.4388 × 10⁻² m·K, refractive index 1) and divided by its value at
-    :data:`BLACKBODY_NORMALISATION_NM`.
-
-    Parameters
-    ----------
-    temperature_k
-        Temperature in kelvin, finite and within :data:`BLACKBODY_LIMITS_K`
-        (500 K to 10⁶ K).
-    wavelengths
-        Wavelengths in nm (1-D, strictly increasing, 200–2000 nm); the protocol's
-        5 nm grid by default.
-
-    Raises
-    ------
-    ValueError
-        The temperature is not a finite number in [500, 10⁶] K, or the wavelengths are
-        invalid.
-    """
-    if isinstance(temperature_k, bool) or not isinstance(
-            temperature_k, int | float | np.integer | np.floating):
-        raise ValueError(f"blackbody temperature must be a number, got "
-                         f"{type(temperature_k).__name__}")
-    t = float(temperature_k)
-    low, high = BLACKBODY_LIMITS_K
-    if not (math.isfinite(t) and low <= t <= high):
-        raise ValueError(f"blackbody temperature must be finite and within {low:g}–{high:g} K, "
-                         f"got {temperature_k}")
-    wl = spectra.check_wavelengths(wavelengths)
-    radiance = np.atleast_1d(planck_law(wl * 1e-9, t))
-    reference = float(planck_law(BLACKBODY_NORMALISATION_NM * 1e-9, t))
-    return np.asarray(radiance / reference, dtype=np.float64)
-
-
-def _finite_1d(values: ArrayLike, name: str, wavelengths: ArrayLike | None) -> tuple:
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: values are not numbers ({exc})") from exc
-    if arr.ndim != 1 or arr.size == 0:
-        raise ValueError(f"{name}: expected a non-empty 1-D array of values, "
-                         f"got shape {arr.shape}")
-    wl = None
-    if wavelengths is not None:
-        wl = np.asarray(wavelengths, dtype=np.float64)
-        if wl.shape != arr.shape:
-            raise ValueError(f"{name}: {arr.size} values but wavelengths of shape {wl.shape}")
-    return arr, wl
-
-
-def _report(arr: np.ndarray, bad: np.ndarray, wl: np.ndarray | None, name: str,
-            problem: str) -> None:
-    if not bad.any():
-        return
-    i = int(np.flatnonzero(bad)[0])
-    at = f"{wl[i]:g} nm" if wl is not None else f"sample {i}"
-    raise ValueError(f"{name}: {int(bad.sum())} of {arr.size} values {problem}; "
-                     f"the first is {arr[i]:g} at {at}")
-
-
-def check_reflectance(values: ArrayLike, name: str,
-                      wavelengths: ArrayLike | None = None) -> np.ndarray:
-    """Check that a reflectance is finite and within [0, 1] → the values as float64.
-
-    Parameters
-    ----------
-    values
-        The reflectance samples, 1-D.
-    name
-        What to call the spectrum in the error message (e.g. ``"diffuse reflectance"``).
-    wavelengths
-        Optional wavelengths (nm) of the samples, so the message can say where the first
-        offending value is; without them it gives the sample index.
-
-    Raises
-    ------
-    ValueError
-        Any value non-finite or outside [0, 1]; the message counts them and names the
-        first one's wavelength (or index).
-    """
-    arr, wl = _finite_1d(values, name, wavelengths)
-    _report(arr, ~np.isfinite(arr), wl, name, "are NaN or inf")
-    _report(arr, (arr < 0.0) | (arr > 1.0), wl, name, "are outside the reflectance range [0, 1]")
-    return arr
-
-
-def check_spd(values: ArrayLike, name: str, wavelengths: ArrayLike | None = None) -> np.ndarray:
-    """Check that a spectral power distribution is finite, ≥ 0 and not all zero → float64.
-
-    Parameters are as for :func:`check_reflectance`.
-
-    Raises
-    ------
-    ValueError
-        Any value non-finite or negative (counted, the first one located), or every
-        value zero.
-    """
-    arr, wl = _finite_1d(values, name, wavelengths)
-    _report(arr, ~np.isfinite(arr), wl, name, "are NaN or inf")
-    _report(arr, arr < 0.0, wl, name, "are negative")
-    if not np.any(arr > 0.0):
-        raise ValueError(f"{name}: every value is zero; a light needs some power")
-    return arr
-
-
-def spectrum_to_grid(wavelengths: ArrayLike, values: ArrayLike,
-                     grid: ArrayLike = spectra.WAVELENGTHS_REFERENCE) -> np.ndarray:
-    """Resample a ``(wavelengths, values)`` spectrum onto ``grid`` → array (len(grid),).
-
-    Delegates to :func:`spectra.spectrum_values`: piecewise-linear interpolation, exact
-    at the input's own samples. **Extrapolation** is constant: grid wavelengths below
-    the first sample take the first value, those above the last take the last value
-    (so a one-sample spectrum becomes a constant). Nothing is clipped or range-checked
-    beyond finiteness.
-
-    Parameters
-    ----------
-    wavelengths, values
-        The spectrum: 1-D arrays of equal length, wavelengths in nm strictly increasing.
-    grid
-        Target wavelengths in nm (1-D, strictly increasing, 200–2000 nm); the protocol's
-        5 nm grid from 380 to 780 nm by default.
-
-    Raises
-    ------
-    ValueError
-        Mismatched or non-1-D inputs, wavelengths not strictly increasing, non-finite
-        values, or an invalid grid.
-    """
-    wl = np.asarray(wavelengths, dtype=np.float64)
-    vals = np.asarray(values, dtype=np.float64)
-    if wl.ndim != 1 or wl.size == 0 or wl.shape != vals.shape:
-        raise ValueError(f"a spectrum needs 1-D wavelengths and values of equal, non-zero "
-                         f"length; got shapes {wl.shape} and {vals.shape}")
-    if not (np.isfinite(wl).all() and np.isfinite(vals).all()):
-        raise ValueError("spectrum wavelengths and values must be finite")
-    return spectra.spectrum_values((wl, vals), np.asarray(grid, dtype=np.float64))
