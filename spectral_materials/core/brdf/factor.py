@@ -27,6 +27,7 @@ from ..decomposition import cp, separable
 from ..progress import ProgressCallback, report, scaled
 from . import metrics
 from .factored import FactoredBRDF
+from .mode_weighting import mode_weights, scale_modes
 from .params import Parameterization, get_parameterization
 from .tabulate import Grid, Table, tabulate
 
@@ -277,48 +278,6 @@ def _relative(table: Table, error_sq: float) -> float:
     return float(np.sqrt((error_sq + table.basis_error_sq) / table.norm_sq))
 
 
-def mode_weights(tensor: np.ndarray, exponent: float, limit: float = 1e3) -> list[np.ndarray]:
-    """Perceptual per-index weights of each angular mode: ``(rms_k(i) / max rms_k)^(−exponent)``.
-
-    ``rms_k(i)`` is the RMS of the table over every other axis at index ``i`` of
-    axis ``k``. Weights are clipped to ``[1, limit]`` (slices of zeros get 1).
-    """
-    d = tensor.ndim - 1
-    sums = [np.zeros(n) for n in tensor.shape[:-1]]
-    for sl in cp.chunk_slices(tensor.shape[0], 8 * tensor[0].size):
-        sq = tensor[sl].astype(np.float64) ** 2
-        for k in range(d):
-            axes = tuple(j for j in range(tensor.ndim) if j != k)
-            if k == 0:
-                sums[0][sl] += sq.sum(axis=axes)
-            else:
-                sums[k] += sq.sum(axis=axes)
-    weights = []
-    for total in sums:
-        rms = np.sqrt(total)
-        peak = rms.max()
-        w = np.ones_like(rms)
-        if peak > 0 and exponent > 0:
-            positive = rms > 0
-            w[positive] = (rms[positive] / peak) ** (-exponent)
-        weights.append(np.clip(w, 1.0, limit))
-    return weights
-
-
-def scale_modes(tensor: np.ndarray, weights: Sequence[np.ndarray]) -> np.ndarray:
-    """A float32 copy of ``tensor`` with axis ``k`` multiplied by ``weights[k]``."""
-    out = np.empty_like(tensor)
-    inner = np.ones(tensor.shape[1:], dtype=np.float32)
-    for k, w in enumerate(weights[1:], start=1):
-        shape = [1] * (tensor.ndim - 1)
-        shape[k - 1] = -1
-        inner = inner * w.astype(np.float32).reshape(shape)
-    for sl in cp.chunk_slices(tensor.shape[0], 4 * tensor[0].size):
-        np.multiply(tensor[sl], inner, out=out[sl])
-        out[sl] *= weights[0][sl].astype(np.float32).reshape((-1,) + (1,) * (tensor.ndim - 1))
-    return out
-
-
 @dataclass
 class _CPOptions:
     method: str
@@ -329,106 +288,133 @@ class _CPOptions:
     seed: int
 
 
-def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de94, base,
-               common_report, tabulated, callback):
-    tensor = table.values
-    weights = None
-    work = tensor
-    if options.weighting > 0:
-        weights = mode_weights(tensor, options.weighting)
-        work = scale_modes(tensor, weights)
-    compression = None
-    if options.compress_tolerance is not None:
-        compression = cp.tucker_compress(work, options.compress_tolerance,
-                                         callback=scaled(callback, 0.0, 0.2))
-        work = compression.core
-    # The stored factors differ from the fitted ones when weighted or smoothed; their
-    # error then needs a pass over the table, and its norm (computed once, here).
-    exact_pass = weights is not None or options.smoothing > 1
-    norm_sq = cp.tensor_norm_sq(tensor) if exact_pass else None
-    compressed = time.perf_counter()
-    results: list[FactoredBRDF] = []
-    per_pack: list[dict] = []
-    bookkeeping = [0.0]  # seconds spent building snapshot models and their error figures
+class _CPSeries:
+    """One CP fit of a table and the models it yields along the way: the table weighted
+    and Tucker-compressed first if asked, a model built at each requested pack count (or
+    at every pack when a ΔE94 target decides where to stop), then the final model."""
 
-    def full_factors(factors):
-        full = compression.lift(factors) if compression is not None else list(factors)
-        if weights is not None:
-            full = [f / w[:, None] for f, w in zip(full, weights)] + full[len(weights):]
+    def __init__(self, table, counts, options: _CPOptions, target, target_de94, base,
+                 common_report, tabulated, callback):
+        self.table, self.counts, self.options = table, counts, options
+        self.target, self.target_de94 = target, target_de94
+        self.base, self.common_report, self.tabulated = base, common_report, tabulated
+        self.tensor = table.values
+        self.weights = None
+        self.work = self.tensor
+        if options.weighting > 0:
+            self.weights = mode_weights(self.tensor, options.weighting)
+            self.work = scale_modes(self.tensor, self.weights)
+        self.compression = None
+        if options.compress_tolerance is not None:
+            self.compression = cp.tucker_compress(self.work, options.compress_tolerance,
+                                                  callback=scaled(callback, 0.0, 0.2))
+            self.work = self.compression.core
+        # The stored factors differ from the fitted ones when weighted or smoothed; their
+        # error then needs a pass over the table, and its norm (computed once, here).
+        self.exact_pass = self.weights is not None or options.smoothing > 1
+        self.norm_sq = cp.tensor_norm_sq(self.tensor) if self.exact_pass else None
+        self.compressed = time.perf_counter()
+        self.results: list[FactoredBRDF] = []
+        self.per_pack: list[dict] = []
+        self.bookkeeping = 0.0  # seconds spent building snapshot models and their errors
+        self.fitted_norm_sq = (self.compression.tensor_norm_sq if self.compression
+                               else cp.tensor_norm_sq(self.work))
+
+    def full_factors(self, factors):
+        full = self.compression.lift(factors) if self.compression is not None \
+            else list(factors)
+        if self.weights is not None:
+            full = [f / w[:, None] for f, w in zip(full, self.weights)] \
+                + full[len(self.weights):]
         return full
 
-    def true_error_sq(full, fitted_error_sq):
+    def true_error_sq(self, full, fitted_error_sq):
         """The table error of the stored factors (one float64 pass if weighted or smoothed)."""
-        if not exact_pass:
-            return fitted_error_sq + (compression.error_sq if compression else 0.0)
-        return cp.residual_norm_sq(tensor, full, norm_sq)
+        if not self.exact_pass:
+            return fitted_error_sq + (self.compression.error_sq if self.compression else 0.0)
+        return cp.residual_norm_sq(self.tensor, full, self.norm_sq)
 
-    def as_model(factors, packs_now, fitted_error_sq, seconds):
+    def _compression_report(self) -> dict | None:
+        compression = self.compression
+        return None if compression is None else {
+            "core_shape": list(compression.core.shape),
+            "relative_error": float(np.sqrt(compression.error_sq
+                                            / max(compression.tensor_norm_sq, 1e-300))),
+            "seconds": self.compressed - self.tabulated}
+
+    def as_model(self, factors, packs_now, fitted_error_sq, seconds):
         begin = time.perf_counter()
-        full = full_factors(factors)
-        full = [_smooth(f, a, options.smoothing)
-                for f, a in zip(full[:-1], table.grid.parameterization.axes)] + full[-1:]
+        full = self.full_factors(factors)
+        full = [_smooth(f, a, self.options.smoothing)
+                for f, a in zip(full[:-1], self.table.grid.parameterization.axes)] + full[-1:]
         angular = [f.astype(np.float32) for f in full[:-1]]
-        model = FactoredBRDF(factors=angular, spectral=full[-1].astype(np.float32), **base)
+        model = FactoredBRDF(factors=angular, spectral=full[-1].astype(np.float32), **self.base)
         model.report = dict(
-            common_report, packs=packs_now, terms=model.terms, factor_seconds=seconds,
-            bytes=model.nbytes, relative_rms=_relative(table, true_error_sq(full,
-                                                                           fitted_error_sq)),
-            weighting=options.weighting,
-            compression=None if compression is None else {
-                "core_shape": list(compression.core.shape),
-                "relative_error": float(np.sqrt(compression.error_sq
-                                                / max(compression.tensor_norm_sq, 1e-300))),
-                "seconds": compressed - tabulated})
-        bookkeeping[0] += time.perf_counter() - begin
+            self.common_report, packs=packs_now, terms=model.terms, factor_seconds=seconds,
+            bytes=model.nbytes,
+            relative_rms=_relative(self.table, self.true_error_sq(full, fitted_error_sq)),
+            weighting=self.options.weighting, compression=self._compression_report())
+        self.bookkeeping += time.perf_counter() - begin
         return model
 
-    def fit_seconds():
+    def fit_seconds(self):
         """Fitting time so far: snapshots taken for other pack counts do not count."""
-        return time.perf_counter() - tabulated - bookkeeping[0]
+        return time.perf_counter() - self.tabulated - self.bookkeeping
 
-    fitted_norm_sq = compression.tensor_norm_sq if compression else cp.tensor_norm_sq(work)
-
-    def on_pack(pack, factors, error_sq):
-        seconds = fit_seconds()
+    def on_pack(self, pack, factors, error_sq):
+        seconds = self.fit_seconds()
         model = None
-        total = error_sq + (compression.error_sq if compression else 0.0)
+        total = error_sq + (self.compression.error_sq if self.compression else 0.0)
         # The objective the fit minimises (weighted when weighting > 0); monotone.
         row = {"packs": pack, "seconds": seconds,
-               "fitted_relative_error": float(np.sqrt(total / max(fitted_norm_sq, 1e-300)))}
+               "fitted_relative_error": float(np.sqrt(total / max(self.fitted_norm_sq,
+                                                                  1e-300)))}
         stop = False
-        if target is not None:
-            model = as_model(factors, pack, error_sq, seconds)
-            row["mean_de94_d65"] = target.stats(model)["mean"]
-            stop = row["mean_de94_d65"] <= target_de94
-        per_pack.append(row)
-        if pack in counts:
-            results.append(model or as_model(factors, pack, error_sq, seconds))
+        if self.target is not None:
+            model = self.as_model(factors, pack, error_sq, seconds)
+            row["mean_de94_d65"] = self.target.stats(model)["mean"]
+            stop = row["mean_de94_d65"] <= self.target_de94
+        self.per_pack.append(row)
+        if pack in self.counts:
+            self.results.append(model or self.as_model(factors, pack, error_sq, seconds))
         return stop
 
-    factors, history = cp.fit_packs(work, max_packs, pack_size=base["pack_size"],
+    def finish(self, factors, history, max_packs):
+        """The final model, the per-pack rows in every report, and the final model again
+        for counts beyond where the fit stopped."""
+        pack_size = self.base["pack_size"]
+        if not history.error_sq:  # zero BRDF: one pack of zeros
+            factors = [np.zeros((n, pack_size)) for n in self.work.shape]
+            error_sq = 0.0
+        else:
+            error_sq = history.error_sq[-1]
+        final = self.as_model(factors, max(1, len(history.error_sq)), error_sq,
+                              self.fit_seconds())
+        per_pack = self.per_pack
+        final.report["per_pack"] = per_pack
+        final.report["stopped"] = (
+            "target reached" if self.target is not None and per_pack and per_pack[-1].get(
+                "mean_de94_d65", np.inf) <= self.target_de94
+            else "error floor" if len(history.error_sq) < max_packs else "pack limit")
+        for model in self.results:
+            model.report["per_pack"] = per_pack[: model.report["packs"]]
+        # Counts beyond where the fit stopped get the final model: more packs would
+        # not lower the error (see report["stopped"]).
+        for count in self.counts[len(self.results):]:
+            extra = replace(final, report=dict(final.report, requested_packs=count))
+            self.results.append(extra)
+        return self.results if self.counts else [final]
+
+
+def _cp_series(table, counts, max_packs, options: _CPOptions, target, target_de94, base,
+               common_report, tabulated, callback):
+    series = _CPSeries(table, counts, options, target, target_de94, base, common_report,
+                       tabulated, callback)
+    factors, history = cp.fit_packs(series.work, max_packs, pack_size=base["pack_size"],
                                     method=options.method, settings=options.settings,
-                                    seed=options.seed, on_pack=on_pack,
+                                    seed=options.seed, on_pack=series.on_pack,
                                     callback=scaled(callback, 0.2, 1.0))
-    if not history.error_sq:  # zero BRDF: one pack of zeros
-        factors = [np.zeros((n, base["pack_size"])) for n in work.shape]
-        error_sq = 0.0
-    else:
-        error_sq = history.error_sq[-1]
-    final = as_model(factors, max(1, len(history.error_sq)), error_sq, fit_seconds())
-    final.report["per_pack"] = per_pack
-    final.report["stopped"] = (
-        "target reached" if target is not None and per_pack and per_pack[-1].get(
-            "mean_de94_d65", np.inf) <= target_de94
-        else "error floor" if len(history.error_sq) < max_packs else "pack limit")
-    for model in results:
-        model.report["per_pack"] = per_pack[: model.report["packs"]]
-    # Counts beyond where the fit stopped get the final model: more packs would
-    # not lower the error (see report["stopped"]).
-    for count in counts[len(results):]:
-        extra = replace(final, report=dict(final.report, requested_packs=count))
-        results.append(extra)
-    return results if counts else [final]
+    return series.finish(factors, history, max_packs)
 
 
 def _separable_series(table, counts, method, nd_norm, base, common_report, callback, seed):
