@@ -30,9 +30,10 @@ def _code_lines(text: str) -> set[int]:
     docstrings = set()
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
-        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
-                and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
-            docstrings.update(range(body[0].lineno, body[0].end_lineno + 1))
+        first = body[0] if isinstance(body, list) and body else None
+        if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) \
+                and isinstance(first.value.value, str):
+            docstrings.update(range(first.lineno, first.end_lineno + 1))
     lines = set()
     skip = {tokenize.COMMENT, tokenize.NL, tokenize.NEWLINE, tokenize.INDENT, tokenize.DEDENT,
             tokenize.ENDMARKER}
@@ -50,7 +51,7 @@ def functions(path: pathlib.Path) -> list[tuple[str, int]]:
 
     def visit(node, prefix):
         for child in ast.iter_child_nodes(node):
-            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
                 first = child.body[0].lineno
                 body = {n for n in code if first <= n <= child.end_lineno}
                 out.append((f"{prefix}{child.name}", len(body)))
@@ -72,7 +73,8 @@ def report(limit_module: int = 500, limit_function: int = 60) -> tuple[list, lis
         funcs.extend((n, f"{rel}:{name}") for name, n in functions(path))
     modules.sort(reverse=True)
     funcs.sort(reverse=True)
-    return ([m for m in modules if m[0] > limit_module], [f for f in funcs if f[0] > limit_function])
+    return ([m for m in modules if m[0] > limit_module],
+            [f for f in funcs if f[0] > limit_function])
 
 
 if __name__ == "__main__":

@@ -61,10 +61,22 @@ reflectance model. SIGGRAPH 2003 (square-root θh spacing).
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
+
+from .axes import Axis, axis_lookup
+from .directions import (  # HALF_VECTOR_EPS, POLE_RHO: read as params.* by callers
+    HALF_PI,
+    HALF_VECTOR_EPS,  # noqa: F401
+    POLE_RHO,  # noqa: F401
+    TWO_PI,
+    _dot,
+    _half_vector,
+    _normalize,
+    _wrap_2pi,
+    check_direction_pairs,
+    from_spherical,
+    spherical,
+)
 
 __all__ = [
     "Axis",
@@ -83,208 +95,11 @@ __all__ = [
     "axis_lookup",
 ]
 
-TWO_PI = 2.0 * math.pi
-HALF_PI = 0.5 * math.pi
-
-#: |wi + wo| at or below this: the half vector is undefined and taken to be n.
-HALF_VECTOR_EPS = 1e-12
-#: Below this |v.xy| an azimuth is rounding noise and taken as 0 (θ < 1e-12 rad).
-POLE_RHO = 1e-12
 #: Tolerance of the validity tests of ``inverse`` (horizon, axis ranges, unit discs).
 VALID_EPS = 1e-12
 #: Horizon tolerance of ``gs``: hz and dz are square roots of 1 − (sum of squares),
 #: so directions near the horizon carry errors of order √ε ≈ 1.5e-8.
 GS_HORIZON_EPS = 1e-7
-
-_WARPS = ("linear", "sqrt")
-
-
-# --------------------------------------------------------------------------- helpers
-
-
-def _wrap_2pi(angle: np.ndarray) -> np.ndarray:
-    """Wrap angles into [0, 2π) (never returns 2π itself)."""
-    a = np.mod(angle, TWO_PI)
-    return np.where(a >= TWO_PI, 0.0, a)
-
-
-def _normalize(v: np.ndarray, fallback: np.ndarray | None = None, eps: float = 0.0):
-    """Normalise rows of ``v (N, 3)``; rows with norm <= eps become ``fallback`` (or stay)."""
-    norm = np.sqrt(np.einsum("...i,...i->...", v, v))
-    small = norm <= eps
-    out = v / np.where(small, 1.0, norm)[..., None]
-    if fallback is not None:
-        out = np.where(small[..., None], fallback, out)
-    return out, small
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("...i,...i->...", a, b)
-
-
-def check_direction_pairs(wi, wo) -> tuple[np.ndarray, np.ndarray]:
-    """``wi``, ``wo`` as float64 (N, 3) arrays of the same shape and finite; ValueError else."""
-    wi = np.asarray(wi, dtype=np.float64)
-    wo = np.asarray(wo, dtype=np.float64)
-    if wi.ndim != 2 or wi.shape[1] != 3 or wi.shape != wo.shape:
-        raise ValueError(f"wi and wo must both be (N, 3), got {wi.shape} and {wo.shape}")
-    if not (np.isfinite(wi).all() and np.isfinite(wo).all()):
-        raise ValueError("wi/wo contain NaN or inf")
-    return wi, wo
-
-
-def spherical(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Polar angle θ ∈ [0, π] and azimuth φ ∈ [0, 2π) of vectors ``v (..., 3)``.
-
-    θ = atan2(√(x² + y²), z), which is accurate near the poles and needs no
-    clipping for |z| slightly above 1. φ = 0 where √(x² + y²) ≤ :data:`POLE_RHO`:
-    there the azimuth is rounding noise (e.g. the difference vector when wi = wo
-    exactly), and a fixed value keeps evaluation deterministic (the GLSL mirror
-    does the same at its float32 noise level).
-    """
-    v = np.asarray(v, dtype=np.float64)
-    # Contiguous copies: NumPy's SIMD loops on strided views round the last bit
-    # differently depending on memory alignment, so results varied between runs.
-    x, y, z = (np.ascontiguousarray(v[..., k]) for k in range(3))
-    rho = np.hypot(x, y)
-    theta = np.arctan2(rho, z)
-    phi = np.where(rho > POLE_RHO, _wrap_2pi(np.arctan2(y, x)), 0.0)
-    return theta, phi
-
-
-def from_spherical(theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Unit vectors ``(..., 3)`` from θ and φ (broadcast together)."""
-    theta, phi = np.broadcast_arrays(
-        np.asarray(theta, dtype=np.float64), np.asarray(phi, dtype=np.float64)
-    )
-    st = np.sin(theta)
-    return np.stack([st * np.cos(phi), st * np.sin(phi), np.cos(theta)], axis=-1)
-
-
-def _half_vector(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-    """norm(wi + wo), with h = n where wi ≈ −wo."""
-    n = np.array([0.0, 0.0, 1.0])
-    h, _ = _normalize(wi + wo, fallback=n, eps=HALF_VECTOR_EPS)
-    return h
-
-
-# --------------------------------------------------------------------------- Axis
-
-
-@dataclass(frozen=True)
-class Axis:
-    """One coordinate axis of a parameterisation.
-
-    Attributes
-    ----------
-    name : str
-        e.g. ``"theta_i"``.
-    lo, hi : float
-        Coordinate range. For periodic axes ``hi − lo`` is one period.
-    periodic : bool
-        Azimuths: values are wrapped into [lo, hi) and lookups wrap around.
-    warp : str
-        ``"linear"``: u = (v − lo)/(hi − lo); ``"sqrt"``: u = ((v − lo)/(hi − lo))^½
-        (MERL-style θh spacing: cells are denser near ``lo``).
-    """
-
-    name: str
-    lo: float
-    hi: float
-    periodic: bool
-    warp: str = "linear"
-
-    def __post_init__(self) -> None:
-        if not self.hi > self.lo:
-            raise ValueError(f"axis {self.name}: hi ({self.hi}) must exceed lo ({self.lo})")
-        if self.warp not in _WARPS:
-            raise ValueError(f"axis {self.name}: warp must be one of {_WARPS}, got {self.warp!r}")
-
-    @property
-    def span(self) -> float:
-        """hi − lo (the period of a periodic axis)."""
-        return float(self.hi - self.lo)
-
-    def wrap(self, v: np.ndarray) -> np.ndarray:
-        """Periodic axes: values wrapped into [lo, hi). Others: clipped into [lo, hi]."""
-        v = np.asarray(v, dtype=np.float64)
-        if self.periodic:
-            r = np.mod(v - self.lo, self.span)
-            r = np.where(r >= self.span, 0.0, r)
-            return self.lo + r
-        return np.clip(v, self.lo, self.hi)
-
-    def to_unit(self, v: np.ndarray) -> np.ndarray:
-        """Value → u ∈ [0, 1] (after the warp).
-
-        Periodic values are wrapped into [lo, hi) first, so u ∈ [0, 1) up to
-        rounding; non-periodic values are clamped into [lo, hi].
-        """
-        t = (self.wrap(v) - self.lo) / self.span
-        t = np.clip(t, 0.0, 1.0)
-        if self.warp == "sqrt":
-            t = np.sqrt(t)
-        return t
-
-    def from_unit(self, u: np.ndarray) -> np.ndarray:
-        """u ∈ [0, 1] → value (inverse of :meth:`to_unit`; u is not clipped)."""
-        u = np.asarray(u, dtype=np.float64)
-        t = u * u if self.warp == "sqrt" else u
-        return self.lo + t * self.span
-
-    def centres(self, n: int) -> np.ndarray:
-        """The ``n`` cell-centre sample values ``from_unit((i + 0.5) / n)``."""
-        n = int(n)
-        if n < 1:
-            raise ValueError(f"axis {self.name}: need at least one cell, got {n}")
-        return self.from_unit((np.arange(n, dtype=np.float64) + 0.5) / n)
-
-
-def axis_lookup(
-    axis: Axis, n: int, values: np.ndarray, edge: str = "linear"
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Linear-interpolation indices and weights on the ``n`` cell centres of ``axis``.
-
-    ``value ≈ (1 − w)·table[i0] + w·table[i1]``. Interpolation is linear in the
-    warped unit coordinate u (where the centres are evenly spaced at
-    (i + 0.5)/n), which is what a GPU texture fetch does.
-
-    Periodic axes wrap: a value between the last centre and ``hi`` (or between
-    ``lo`` and the first centre) interpolates between cells n − 1 and 0.
-    Non-periodic axes: values are clamped into [lo, hi] first; between ``lo``
-    and the first centre, or the last centre and ``hi``, ``edge="linear"``
-    extrapolates from the two nearest centres (w ∈ [−0.5, 1.5]) and
-    ``edge="clamp"`` holds the end value (w clipped to [0, 1]). With ``n == 1``,
-    i0 = i1 = 0 and w = 0. NaN values count as ``lo``, ±inf as ``hi``/``lo``.
-
-    Returns
-    -------
-    i0, i1 : int64 arrays shaped like ``values``
-    w : float64 array shaped like ``values``
-    """
-    if edge not in ("linear", "clamp"):
-        raise ValueError(f"edge must be 'linear' or 'clamp', got {edge!r}")
-    n = int(n)
-    if n < 1:
-        raise ValueError(f"need at least one cell, got {n}")
-    v = np.nan_to_num(
-        np.asarray(values, dtype=np.float64), nan=axis.lo, posinf=axis.hi, neginf=axis.lo
-    )
-    if n == 1:
-        zeros = np.zeros(v.shape, dtype=np.int64)
-        return zeros, zeros.copy(), np.zeros(v.shape, dtype=np.float64)
-    x = axis.to_unit(v) * n - 0.5
-    f = np.floor(x)
-    if axis.periodic:
-        w = x - f
-        i0 = np.mod(f.astype(np.int64), n)
-        i1 = np.mod(i0 + 1, n)
-        return i0, i1, w
-    i0 = np.clip(f, 0, n - 2).astype(np.int64)
-    w = x - i0
-    if edge == "clamp":
-        w = np.clip(w, 0.0, 1.0)
-    return i0, i0 + 1, w
 
 
 # --------------------------------------------------------------------------- base class

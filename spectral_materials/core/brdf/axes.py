@@ -1,0 +1,126 @@
+"""Grid axes of the parameterisations (:mod:`.params`): cell centres, warps, and the
+texture lookup :func:`axis_lookup` that the GLSL ``axis_lookup.glsl`` mirrors."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+_WARPS = ("linear", "sqrt")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One coordinate axis of a parameterisation.
+
+    Attributes
+    ----------
+    name : str
+        e.g. ``"theta_i"``.
+    lo, hi : float
+        Coordinate range. For periodic axes ``hi − lo`` is one period.
+    periodic : bool
+        Azimuths: values are wrapped into [lo, hi) and lookups wrap around.
+    warp : str
+        ``"linear"``: u = (v − lo)/(hi − lo); ``"sqrt"``: u = ((v − lo)/(hi − lo))^½
+        (MERL-style θh spacing: cells are denser near ``lo``).
+    """
+
+    name: str
+    lo: float
+    hi: float
+    periodic: bool
+    warp: str = "linear"
+
+    def __post_init__(self) -> None:
+        if not self.hi > self.lo:
+            raise ValueError(f"axis {self.name}: hi ({self.hi}) must exceed lo ({self.lo})")
+        if self.warp not in _WARPS:
+            raise ValueError(f"axis {self.name}: warp must be one of {_WARPS}, got {self.warp!r}")
+
+    @property
+    def span(self) -> float:
+        """hi − lo (the period of a periodic axis)."""
+        return float(self.hi - self.lo)
+
+    def wrap(self, v: np.ndarray) -> np.ndarray:
+        """Periodic axes: values wrapped into [lo, hi). Others: clipped into [lo, hi]."""
+        v = np.asarray(v, dtype=np.float64)
+        if self.periodic:
+            r = np.mod(v - self.lo, self.span)
+            r = np.where(r >= self.span, 0.0, r)
+            return self.lo + r
+        return np.clip(v, self.lo, self.hi)
+
+    def to_unit(self, v: np.ndarray) -> np.ndarray:
+        """Value → u ∈ [0, 1] (after the warp).
+
+        Periodic values are wrapped into [lo, hi) first, so u ∈ [0, 1) up to
+        rounding; non-periodic values are clamped into [lo, hi].
+        """
+        t = (self.wrap(v) - self.lo) / self.span
+        t = np.clip(t, 0.0, 1.0)
+        if self.warp == "sqrt":
+            t = np.sqrt(t)
+        return t
+
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """u ∈ [0, 1] → value (inverse of :meth:`to_unit`; u is not clipped)."""
+        u = np.asarray(u, dtype=np.float64)
+        t = u * u if self.warp == "sqrt" else u
+        return self.lo + t * self.span
+
+    def centres(self, n: int) -> np.ndarray:
+        """The ``n`` cell-centre sample values ``from_unit((i + 0.5) / n)``."""
+        n = int(n)
+        if n < 1:
+            raise ValueError(f"axis {self.name}: need at least one cell, got {n}")
+        return self.from_unit((np.arange(n, dtype=np.float64) + 0.5) / n)
+
+
+def axis_lookup(
+    axis: Axis, n: int, values: np.ndarray, edge: str = "linear"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Linear-interpolation indices and weights on the ``n`` cell centres of ``axis``.
+
+    ``value ≈ (1 − w)·table[i0] + w·table[i1]``. Interpolation is linear in the
+    warped unit coordinate u (where the centres are evenly spaced at
+    (i + 0.5)/n), which is what a GPU texture fetch does.
+
+    Periodic axes wrap: a value between the last centre and ``hi`` (or between
+    ``lo`` and the first centre) interpolates between cells n − 1 and 0.
+    Non-periodic axes: values are clamped into [lo, hi] first; between ``lo``
+    and the first centre, or the last centre and ``hi``, ``edge="linear"``
+    extrapolates from the two nearest centres (w ∈ [−0.5, 1.5]) and
+    ``edge="clamp"`` holds the end value (w clipped to [0, 1]). With ``n == 1``,
+    i0 = i1 = 0 and w = 0. NaN values count as ``lo``, ±inf as ``hi``/``lo``.
+
+    Returns
+    -------
+    i0, i1 : int64 arrays shaped like ``values``
+    w : float64 array shaped like ``values``
+    """
+    if edge not in ("linear", "clamp"):
+        raise ValueError(f"edge must be 'linear' or 'clamp', got {edge!r}")
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"need at least one cell, got {n}")
+    v = np.nan_to_num(
+        np.asarray(values, dtype=np.float64), nan=axis.lo, posinf=axis.hi, neginf=axis.lo
+    )
+    if n == 1:
+        zeros = np.zeros(v.shape, dtype=np.int64)
+        return zeros, zeros.copy(), np.zeros(v.shape, dtype=np.float64)
+    x = axis.to_unit(v) * n - 0.5
+    f = np.floor(x)
+    if axis.periodic:
+        w = x - f
+        i0 = np.mod(f.astype(np.int64), n)
+        i1 = np.mod(i0 + 1, n)
+        return i0, i1, w
+    i0 = np.clip(f, 0, n - 2).astype(np.int64)
+    w = x - i0
+    if edge == "clamp":
+        w = np.clip(w, 0.0, 1.0)
+    return i0, i0 + 1, w
