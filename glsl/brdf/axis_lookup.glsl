@@ -1,6 +1,6 @@
-/* Mirror: spectral_materials.core.brdf.params.axis_lookup */
+/* Mirror: spectral_materials.core.brdf.axes.axis_lookup */
 /* Linear-interpolation indices and weight on an axis's cell centres.
- * Mirrors params.axis_lookup: value ≈ mix(table[i0], table[i1], w). Periodic axes
+ * Mirrors axes.axis_lookup: value ≈ mix(table[i0], table[i1], w). Periodic axes
  * wrap between the last and first cells; other axes clamp the value into [lo, hi]
  * and extrapolate linearly beyond the end centres (edge_clamp holds them instead).
  * flags: bit 0 periodic, bit 1 square-root warp. */

@@ -12,7 +12,7 @@ float sm_wrap_2pi(float a)
 }
 
 /* Below this ρ = |v.xy| the azimuth is float32 rounding noise (θ < 1e-5 rad): take
- * φ = 0, as params.spherical does below 1e-12. Where wi = wo exactly (a light behind
+ * φ = 0, as directions.spherical does below 1e-12. Where wi = wo exactly (a light behind
  * the camera) d = (0, 0, 1) in float64 but carries ~1e-6 noise here (llvmpipe),
  * and φd would otherwise be arbitrary. */
 #define SM_POLE_RHO 1e-5

@@ -8,7 +8,7 @@ light, stage by stage in labelled frames:
    normalize(ŷ × n), x̂ at its poles), Gram–Schmidt; wi toward the key light (its
    position or direction come from drivers on the light object), wo = Incoming.
 2. *Coordinates*: the parameterisation (io, io_iso, ea, hd, hd_iso) from local wi, wo.
-3. *Axis lookups*: indices and weight per axis, as ``params.axis_lookup``.
+3. *Axis lookups*: indices and weight per axis, as ``axes.axis_lookup``.
 4. *Packs*: per pack and axis, two texels of the factor image (``Closest``, so the
    interpolation is the one written here, as in the GLSL), lerped and multiplied.
 5. *Colour*: each pack's 4 terms times their RGB weights for the key light (the
@@ -181,7 +181,7 @@ def _coordinates(g: Graph, parameterization: str, wi, wo, column: int) -> list:
 
 
 def _axis_lookup(g: Graph, value, axis, cells: int, clamp_edge: bool, column: int, k: int):
-    """(i0, i1, w) sockets, as params.axis_lookup (cells > 1)."""
+    """(i0, i1, w) sockets, as axes.axis_lookup (cells > 1)."""
     span = float(axis.span)
     if axis.periodic:
         t = g.math("DIVIDE", g.math("FLOORED_MODULO", g.math("SUBTRACT", value, axis.lo,

@@ -2,7 +2,7 @@
 
 Grids are cell-centred: axis ``k`` with ``n`` cells samples ``Axis.centres(n)``,
 so no sample sits exactly on a pole, on the horizon or on a φ seam. Lookups
-interpolate linearly per axis (``params.axis_lookup``): φ axes wrap, and
+interpolate linearly per axis (``axes.axis_lookup``): φ axes wrap, and
 beyond the first or last centre of a θ axis the table is extrapolated linearly
 (``edge="linear"``, the default, measured better than holding the end value
 for ``f·cosθi``, which goes to 0 at the horizon) or held (``edge="clamp"``).
