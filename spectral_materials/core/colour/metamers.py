@@ -202,32 +202,16 @@ def metamer(reflectance: np.ndarray, match: str | np.ndarray = "D65",
     wl = spectra.check_wavelengths(wavelengths)
     r0 = _check_reflectance(reflectance, wl, bounds=True)
     lo, hi = _check_bounds(bounds)
-    if not (np.isfinite(smoothness) and smoothness > 0):
-        raise ValueError(f"smoothness must be a positive number of nm, got {smoothness}")
-    if int(directions) < 6:
-        raise ValueError(f"need at least 6 directions, got {directions}")
-    if isinstance(match, str) and isinstance(differ, str) and match.upper() == differ.upper():
-        raise ValueError(f"match and differ are the same illuminant ({match!r}): a metamer "
-                         "cannot differ under the illuminant it matches under")
+    _check_options(match, differ, smoothness, directions)
 
     a_match = _xyz_matrix(match, wl, observer)
     a_differ = _xyz_matrix(differ, wl, observer)
     white = colour_pipeline.white_xyz(differ, wl, observer=observer)
     white_match = colour_pipeline.white_xyz(match, wl, observer=observer)
 
-    count = min(int(np.floor((wl[-1] - wl[0]) / smoothness + 1e-9)) + 1, wl.size)
-    if count < 5:
-        raise ValueError(f"smoothness {smoothness} nm leaves {count} cosines; a metameric black "
-                         "needs at least 5 (use a smaller smoothness)")
-    phi = cosine_basis(wl, count)
-    null = linalg.null_space(a_match @ phi)
-    if null.shape[1] == 0:
-        raise ValueError("no smooth metameric black exists on this grid (null space is empty)")
-    g = phi @ null                     # (L, n): r = r0 + g d
+    count, g = _smooth_black_space(wl, a_match, smoothness)   # r = r0 + g d
     m = a_differ @ g                   # (3, n): ΔXYZ under differ
-
     xyz0 = a_differ @ r0
-    lab_jac = _lab_jacobian(xyz0, white)
 
     def delta_e(d: np.ndarray) -> float:
         return float(colour_pipeline.delta_e94(xyz0, xyz0 + m @ d, white))
@@ -237,42 +221,9 @@ def metamer(reflectance: np.ndarray, match: str | np.ndarray = "D65",
     b_ub = np.concatenate([hi - r0, r0 - lo])
     feasible_at_zero = r0.min() >= lo and r0.max() <= hi
 
-    best_d, best_de = None, -1.0
-    for u in _fibonacci_sphere(int(directions)):
-        c = -(u @ lab_jac @ m)
-        res = optimize.linprog(c, A_ub=a_ub, b_ub=b_ub, bounds=(None, None), method="highs")
-        if res.status == 2:
-            raise ValueError(f"no metamer within bounds ({lo}, {hi}) matches the reflectance "
-                             f"under {_illuminant_label(match)} with this smoothness "
-                             "(the constraints are infeasible)")
-        if res.status != 0:
-            continue
-        de = delta_e(res.x)
-        if de > best_de + 1e-12:
-            best_d, best_de = res.x, de
-    if best_d is None:
-        raise ValueError("the metamer linear programs failed in every direction")
-    if best_de < 1e-6:
-        raise ValueError("the metamer set is a single point: under these bounds the only "
-                         "metamer is the reflectance itself (e.g. it sits on the bounds)")
-
-    # SLSQP on the exact ΔE94 from the best vertex. Gradient: chain rule through the
-    # 3 XYZ components (central differences there, exact linear map m after).
-    def objective(d: np.ndarray) -> tuple[float, np.ndarray]:
-        xyz = xyz0 + m @ d
-        h = 1e-7
-        steps = np.eye(3) * h
-        pts = np.concatenate([xyz[None], xyz + steps, xyz - steps])
-        de = colour_pipeline.delta_e94(np.broadcast_to(xyz0, pts.shape), pts, white)
-        grad_xyz = (de[1:4] - de[4:7]) / (2 * h)
-        return -float(de[0]), -(m.T @ grad_xyz)
-
-    res = optimize.minimize(
-        objective, best_d, jac=True, method="SLSQP",
-        constraints=[{"type": "ineq", "fun": lambda d: b_ub - a_ub @ d,
-                      "jac": lambda d: -a_ub}],
-        options={"maxiter": 200, "ftol": 1e-10},
-    )
+    best_d, best_de = _best_vertex(_lab_jacobian(xyz0, white), m, a_ub, b_ub, delta_e,
+                                   int(directions), (lo, hi), match)
+    res = _refine(best_d, xyz0, m, white, a_ub, b_ub)
     d = res.x if np.isfinite(res.x).all() and delta_e(res.x) >= best_de else best_d
     spectrum = _polish(r0 + g @ d, a_match, a_match @ r0, lo, hi,
                        r0 if feasible_at_zero else None)
@@ -292,6 +243,79 @@ def metamer(reflectance: np.ndarray, match: str | np.ndarray = "D65",
         delta_e94_differ=float(colour_pipeline.delta_e94(xyz0, xyz_differ1, white)),
         success=bool(res.success), status=int(res.status), message=str(res.message),
         basis_size=count,
+    )
+
+
+def _check_options(match, differ, smoothness: float, directions: int) -> None:
+    if not (np.isfinite(smoothness) and smoothness > 0):
+        raise ValueError(f"smoothness must be a positive number of nm, got {smoothness}")
+    if int(directions) < 6:
+        raise ValueError(f"need at least 6 directions, got {directions}")
+    if isinstance(match, str) and isinstance(differ, str) and match.upper() == differ.upper():
+        raise ValueError(f"match and differ are the same illuminant ({match!r}): a metamer "
+                         "cannot differ under the illuminant it matches under")
+
+
+def _smooth_black_space(wl: np.ndarray, a_match: np.ndarray, smoothness: float
+                        ) -> tuple[int, np.ndarray]:
+    """(cosines used, g (L, n)): the smooth metameric blacks under ``a_match`` are
+    ``g d``, g spanning the null space of ``a_match`` within the cosine basis."""
+    count = min(int(np.floor((wl[-1] - wl[0]) / smoothness + 1e-9)) + 1, wl.size)
+    if count < 5:
+        raise ValueError(f"smoothness {smoothness} nm leaves {count} cosines; a metameric black "
+                         "needs at least 5 (use a smaller smoothness)")
+    phi = cosine_basis(wl, count)
+    null = linalg.null_space(a_match @ phi)
+    if null.shape[1] == 0:
+        raise ValueError("no smooth metameric black exists on this grid (null space is empty)")
+    return count, phi @ null
+
+
+def _best_vertex(lab_jac: np.ndarray, m: np.ndarray, a_ub: np.ndarray, b_ub: np.ndarray,
+                 delta_e, directions: int, bounds: tuple[float, float], match
+                 ) -> tuple[np.ndarray, float]:
+    """The vertex of the bounded set with the largest ΔE94 among linear programs that push
+    the CIELAB change (``lab_jac @ m @ d``) along ``directions`` directions of a sphere."""
+    lo, hi = bounds
+    best_d, best_de = None, -1.0
+    for u in _fibonacci_sphere(directions):
+        c = -(u @ lab_jac @ m)
+        res = optimize.linprog(c, A_ub=a_ub, b_ub=b_ub, bounds=(None, None), method="highs")
+        if res.status == 2:
+            raise ValueError(f"no metamer within bounds ({lo}, {hi}) matches the reflectance "
+                             f"under {_illuminant_label(match)} with this smoothness "
+                             "(the constraints are infeasible)")
+        if res.status != 0:
+            continue
+        de = delta_e(res.x)
+        if de > best_de + 1e-12:
+            best_d, best_de = res.x, de
+    if best_d is None:
+        raise ValueError("the metamer linear programs failed in every direction")
+    if best_de < 1e-6:
+        raise ValueError("the metamer set is a single point: under these bounds the only "
+                         "metamer is the reflectance itself (e.g. it sits on the bounds)")
+    return best_d, best_de
+
+
+def _refine(best_d: np.ndarray, xyz0: np.ndarray, m: np.ndarray, white: np.ndarray,
+            a_ub: np.ndarray, b_ub: np.ndarray):
+    """SLSQP on the exact ΔE94 from the best vertex. Gradient: chain rule through the
+    3 XYZ components (central differences there, exact linear map m after)."""
+    def objective(d: np.ndarray) -> tuple[float, np.ndarray]:
+        xyz = xyz0 + m @ d
+        h = 1e-7
+        steps = np.eye(3) * h
+        pts = np.concatenate([xyz[None], xyz + steps, xyz - steps])
+        de = colour_pipeline.delta_e94(np.broadcast_to(xyz0, pts.shape), pts, white)
+        grad_xyz = (de[1:4] - de[4:7]) / (2 * h)
+        return -float(de[0]), -(m.T @ grad_xyz)
+
+    return optimize.minimize(
+        objective, best_d, jac=True, method="SLSQP",
+        constraints=[{"type": "ineq", "fun": lambda d: b_ub - a_ub @ d,
+                      "jac": lambda d: -a_ub}],
+        options={"maxiter": 200, "ftol": 1e-10},
     )
 
 
