@@ -173,6 +173,50 @@ def _check_lights(lights: Mapping, wl: np.ndarray) -> tuple[list[str], list[np.n
     return names, spds
 
 
+def _light_weights(light_names: list[str], spds: list[np.ndarray], wl: np.ndarray,
+                   observer: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Each light's XYZ weights (J, L, 3) and white point, naming the light at fault."""
+    weights, whites = [], []
+    for name, spd in zip(light_names, spds, strict=True):
+        try:
+            weights.append(colour_pipeline.xyz_weights(spd, wl, observer=observer))
+        except ValueError as error:
+            raise ValueError(f"light {name!r}: {error}") from None
+        whites.append(colour_pipeline.white_xyz(spd, wl, observer=observer))
+    return np.stack(weights), whites
+
+
+def _pair_errors(coefficients: np.ndarray, light_coefficients: np.ndarray,
+                 reference_lab: np.ndarray, whites: list[np.ndarray],
+                 material_index: np.ndarray, n_materials: int, top: int,
+                 callback: ProgressCallback | None) -> tuple[np.ndarray, np.ndarray]:
+    """Max and sum of ΔE94 per (light, material, basis size), over spectra in chunks of
+    about :data:`_CHUNK_VALUES` values (chunks may span material boundaries)."""
+    n_lights = light_coefficients.shape[0]
+    pair_max = np.zeros((n_lights, n_materials, top))
+    pair_sum = np.zeros((n_lights, n_materials, top))
+    total = coefficients.shape[0]
+    chunk = max(1, _CHUNK_VALUES // top)
+    for start in range(0, total, chunk):
+        stop = min(total, start + chunk)
+        ids = material_index[start:stop]
+        segments = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+        present = ids[segments]
+        a = coefficients[start:stop]
+        for j in range(n_lights):
+            # XYZ at every size m: the partial sums of the eq. 9 products, (n, M, 3).
+            xyz = np.cumsum(a[:, :, None] * light_coefficients[j][None], axis=1)
+            lab = colour_pipeline.xyz_to_lab(xyz, whites[j])
+            de = delta_E_CIE1994(np.broadcast_to(reference_lab[j, start:stop, None, :],
+                                                 lab.shape), lab)           # (n, M)
+            pair_max[j, present] = np.maximum(pair_max[j, present],
+                                              np.maximum.reduceat(de, segments, axis=0))
+            pair_sum[j, present] += np.add.reduceat(de, segments, axis=0)
+        report(callback, 0.1 + 0.85 * stop / total,
+               f"scene basis: ΔE94 of {stop} of {total} spectra")
+    return pair_max, pair_sum
+
+
 def choose_scene_basis(
     materials: Mapping[str, np.ndarray],
     lights: Mapping[str, np.ndarray | str],
@@ -243,14 +287,7 @@ def choose_scene_basis(
 
     reflectances = np.concatenate(blocks, axis=0)                      # (N, L)
     counts = np.array([b.shape[0] for b in blocks])
-    weights, whites = [], []
-    for name, spd in zip(light_names, spds, strict=True):
-        try:
-            weights.append(colour_pipeline.xyz_weights(spd, wl, observer=observer))
-        except ValueError as error:
-            raise ValueError(f"light {name!r}: {error}") from None
-        whites.append(colour_pipeline.white_xyz(spd, wl, observer=observer))
-    weights = np.stack(weights)                                        # (J, L, 3)
+    weights, whites = _light_weights(light_names, spds, wl, observer)   # (J, L, 3), J × (3,)
     light_cmf = light_cmf_spectra(spds, wl, observer=observer)          # (3J, L)
 
     inputs = np.concatenate([reflectances, light_cmf], axis=0)
@@ -267,27 +304,9 @@ def choose_scene_basis(
     reference_lab = np.stack([colour_pipeline.xyz_to_lab(reference[j], whites[j])
                               for j in range(n_lights)])
     material_index = np.repeat(np.arange(n_materials), counts)
-    pair_max = np.zeros((n_lights, n_materials, top))
-    pair_sum = np.zeros((n_lights, n_materials, top))
+    pair_max, pair_sum = _pair_errors(coefficients, light_coefficients, reference_lab, whites,
+                                      material_index, n_materials, top, callback)
     total = reflectances.shape[0]
-    chunk = max(1, _CHUNK_VALUES // top)
-    for start in range(0, total, chunk):
-        stop = min(total, start + chunk)
-        ids = material_index[start:stop]
-        segments = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
-        present = ids[segments]
-        a = coefficients[start:stop]
-        for j in range(n_lights):
-            # XYZ at every size m: the partial sums of the eq. 9 products, (n, M, 3).
-            xyz = np.cumsum(a[:, :, None] * light_coefficients[j][None], axis=1)
-            lab = colour_pipeline.xyz_to_lab(xyz, whites[j])
-            de = delta_E_CIE1994(np.broadcast_to(reference_lab[j, start:stop, None, :],
-                                                 lab.shape), lab)           # (n, M)
-            pair_max[j, present] = np.maximum(pair_max[j, present],
-                                              np.maximum.reduceat(de, segments, axis=0))
-            pair_sum[j, present] += np.add.reduceat(de, segments, axis=0)
-        report(callback, 0.1 + 0.85 * stop / total,
-               f"scene basis: ΔE94 of {stop} of {total} spectra")
 
     size_max = pair_max.max(axis=(0, 1))                               # (M,)
     size_mean = pair_sum.sum(axis=(0, 1)) / (n_lights * total)
