@@ -142,6 +142,52 @@ def _describe_bad(grid: Grid, flat: np.ndarray, wavelengths: np.ndarray, bad: np
     return "; ".join(parts)
 
 
+def _table_depth(grid: Grid, wl: np.ndarray, basis: LinearModelBasis | None) -> int:
+    """Entries per grid point (wavelengths, or basis coefficients), the table size checked."""
+    if basis is not None and (basis.wavelengths.shape != wl.shape
+                              or not np.allclose(basis.wavelengths, wl)):
+        raise ValueError("the spectral basis is defined on other wavelengths than the table")
+    depth = wl.size if basis is None else basis.size
+    if grid.size * depth > MAX_TABLE_ENTRIES:
+        raise ValueError(
+            f"a {grid.shape} × {depth} table has {grid.size * depth:,} entries, over the "
+            f"{MAX_TABLE_ENTRIES:,} limit; lower the resolution or use a spectral basis"
+        )
+    return depth
+
+
+def _sample_chunk(brdf, grid: Grid, flat: np.ndarray, wl: np.ndarray, cosine_weighted: bool,
+                  counts: dict, *, locate: bool
+                  ) -> tuple[np.ndarray | None, np.ndarray, str | None]:
+    """The BRDF at the grid points ``flat`` where both directions are above the horizon.
+
+    Returns (samples (lit points, L) or None if none is lit, the lit mask, None). Where
+    the BRDF returns NaN, inf or negative values they are added to ``counts`` and the
+    result is (None, mask, where the first sit if ``locate`` else "").
+    """
+    wi, wo, ok = grid.parameterization.inverse(grid.coords(flat))
+    ok = ok & (wi[:, 2] > 0) & (wo[:, 2] > 0)
+    if not ok.any():
+        return None, ok, None
+    f = np.asarray(brdf(wi[ok], wo[ok], wl), dtype=np.float64)
+    if f.shape != (int(ok.sum()), wl.size):
+        expected = (int(ok.sum()), wl.size)
+        raise ValueError(f"BRDF returned shape {f.shape}, expected {expected}")
+    bad = ~np.isfinite(f) | (f < 0)
+    if bad.any():
+        counts["nan"] += int(np.isnan(f).sum())
+        counts["inf"] += int(np.isinf(f).sum())
+        counts["neg"] += int((f < 0).sum())
+        return None, ok, _describe_bad(grid, flat[ok], wl, bad) if locate else ""
+    if cosine_weighted:
+        f = f * wi[ok, 2:3]  # never in place: the array may be the caller's
+    if np.abs(f).max(initial=0.0) > np.finfo(np.float32).max:
+        raise InvalidBRDFData(
+            f"the BRDF exceeds the float32 range ({np.abs(f).max():.3g}) near "
+            f"{_describe_bad(grid, flat[ok], wl, np.abs(f) > np.finfo(np.float32).max)}")
+    return f, ok, None
+
+
 def tabulate(
     brdf,
     grid: Grid,
@@ -165,15 +211,7 @@ def tabulate(
     start = time.perf_counter()
     wl = spectra.check_wavelengths(
         spectra.WAVELENGTHS_REFERENCE if wavelengths is None else wavelengths)
-    if basis is not None and (basis.wavelengths.shape != wl.shape
-                              or not np.allclose(basis.wavelengths, wl)):
-        raise ValueError("the spectral basis is defined on other wavelengths than the table")
-    depth = wl.size if basis is None else basis.size
-    if grid.size * depth > MAX_TABLE_ENTRIES:
-        raise ValueError(
-            f"a {grid.shape} × {depth} table has {grid.size * depth:,} entries, over the "
-            f"{MAX_TABLE_ENTRIES:,} limit; lower the resolution or use a spectral basis"
-        )
+    depth = _table_depth(grid, wl, basis)
     values = np.zeros((grid.size, depth), dtype=np.float32)
     valid = np.zeros(grid.size, dtype=bool)
     vectors = None if basis is None else basis.vectors
@@ -183,27 +221,12 @@ def tabulate(
     kept_sq = 0.0
     for begin in range(0, grid.size, chunk_points):
         flat = np.arange(begin, min(begin + chunk_points, grid.size))
-        wi, wo, ok = grid.parameterization.inverse(grid.coords(flat))
-        ok = ok & (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        if ok.any():
-            f = np.asarray(brdf(wi[ok], wo[ok], wl), dtype=np.float64)
-            if f.shape != (int(ok.sum()), wl.size):
-                expected = (int(ok.sum()), wl.size)
-                raise ValueError(f"BRDF returned shape {f.shape}, expected {expected}")
-            bad = ~np.isfinite(f) | (f < 0)
-            if bad.any():
-                counts["nan"] += int(np.isnan(f).sum())
-                counts["inf"] += int(np.isinf(f).sum())
-                counts["neg"] += int((f < 0).sum())
-                if not first_bad:
-                    first_bad = _describe_bad(grid, flat[ok], wl, bad)
-                continue
-            if cosine_weighted:
-                f = f * wi[ok, 2:3]  # never in place: the array may be the caller's
-            if np.abs(f).max(initial=0.0) > np.finfo(np.float32).max:
-                raise InvalidBRDFData(
-                    f"the BRDF exceeds the float32 range ({np.abs(f).max():.3g}) near "
-                    f"{_describe_bad(grid, flat[ok], wl, np.abs(f) > np.finfo(np.float32).max)}")
+        f, ok, where = _sample_chunk(brdf, grid, flat, wl, cosine_weighted, counts,
+                                     locate=not first_bad)
+        if where is not None:  # bad samples: counted, the chunk left out
+            first_bad = first_bad or where
+            continue
+        if f is not None:
             norm_sq += float(np.sum(f * f))
             if vectors is not None:
                 f = f @ vectors
