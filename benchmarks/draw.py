@@ -20,9 +20,10 @@ Writes ``docs/bench_draw.md`` and ``docs/bench_draw.json`` (``--quick``:
 Usage::
 
     python -m benchmarks.draw              # the default grid (~6 min on 2 cores, llvmpipe)
-    python scripts/bench_draw.py --quick      # 400 × 400 target, small grid (< 1 min)
-    python scripts/bench_draw.py --device-out out/gpu   # on a machine with a GPU
+    python -m benchmarks.draw --quick      # 400 × 400 target, small grid (< 1 min)
+    python -m benchmarks.draw --device-out out/gpu   # on a machine with a GPU
 """
+
 from __future__ import annotations
 
 import time

@@ -3,7 +3,7 @@
 One smooth UV sphere (128 segments × 64 rings, with UVs, so the group takes its
 tangent from the UV map), one sun (strength 1, D65, 30° from the view axis), an
 orthographic camera (the sphere's diameter is 94 % of the image side, as in
-``bench_draw.py``) and a black world (``eevee._black_world``). The sphere's material is
+``benchmarks.draw``) and a black world (``eevee._black_world``). The sphere's material is
 a synthetic CP model in the factor-pack paper's layouts (io_iso 90×180×90, hd
 90×45×90×45, spectral basis of 8, packs of 4 terms), stored with
 ``storage.store_factored`` and given the EEVEE node group with ``eevee.apply_eevee``.

@@ -16,7 +16,6 @@ import os
 import platform
 import subprocess
 import sys
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -151,13 +150,6 @@ def interleave(candidate: Callable[[], float], baseline: Callable[[], float],
         timings.candidate.append(candidate())
         timings.baseline.append(baseline())
     return timings
-
-
-def seconds_of(action: Callable[[], object]) -> float:
-    """Wall seconds of one call."""
-    start = time.perf_counter()
-    action()
-    return time.perf_counter() - start
 
 
 # ---------------------------------------------------------------------- writers
