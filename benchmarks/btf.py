@@ -31,12 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from spectral_materials.core.btf import container as btf
-from spectral_materials.core.btf import fit as btf_fit
-from spectral_materials.core.btf import generate as btf_generate
-from spectral_materials.core.btf import job as btf_job
-from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra
+from spectral_materials.core.btf import (
+    container as btf,
+    fit as btf_fit,
+    generate as btf_generate,
+    job as btf_job,
+)
+from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 
 from . import harness
 from .harness import DOCS, log

@@ -32,8 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from spectral_materials.blender.brdf.gpu_material import GPUMaterial
-from spectral_materials.blender.gpu import batches as mesh_batches
-from spectral_materials.blender.gpu import shaders
+from spectral_materials.blender.gpu import batches as mesh_batches, shaders
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.display import DisplaySettings
 from spectral_materials.blender.gpu.matrices import set_matrix

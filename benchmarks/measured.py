@@ -30,8 +30,7 @@ import numpy as np
 
 from spectral_materials.core.brdf import metrics, models
 from spectral_materials.core.brdf.factor import factor_brdf_series
-from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra, uplift
+from spectral_materials.core.colour import pipeline as colour_pipeline, spectra, uplift
 from spectral_materials.core.formats import merl
 
 from . import harness

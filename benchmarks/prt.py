@@ -45,8 +45,7 @@ import numpy as np
 from spectral_materials import blender as addon
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.offscreen import Target
-from spectral_materials.blender.prt import drawer as prt_gpu
-from spectral_materials.blender.prt import scene as prt
+from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
 from spectral_materials.blender.viewport import draw
 
 from . import harness

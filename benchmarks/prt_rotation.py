@@ -40,8 +40,7 @@ import numpy as np
 
 from spectral_materials import blender as addon
 from spectral_materials.blender.prt import scene as prt
-from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 
 from . import harness
 from .scenes import factory_scene
@@ -106,7 +105,7 @@ def sphere_scene():
 
 def ledge_scene():
     """A 12 × 12 floor grid with a box standing on it, one mesh (the box shadows the
-    floor, as in tests/blender/test_prt_scene.py)."""
+    floor, as in tests/blender/prt/test_prt_scene.py)."""
     scene = _fresh_scene()
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=12, y_subdivisions=12, size=4.0)
     floor = bpy.context.active_object

@@ -7,11 +7,9 @@ import time
 
 import numpy as np
 
-from spectral_materials.blender.prt import drawer as prt_gpu
-from spectral_materials.blender.prt import scene as prt
+from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
 from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.prt import environment as core_environment
-from spectral_materials.core.prt import transfer as core_prt
+from spectral_materials.core.prt import environment as core_environment, transfer as core_prt
 
 from .harness import log
 from .prt_report import DEFAULT_WINDOW, SKIES, WINDOWS

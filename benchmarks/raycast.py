@@ -226,7 +226,7 @@ def notes(results: dict) -> list[str]:
                    "projects every triangle for every direction): compare the two Suzannes.")
     worst = max(rows, key=lambda r: r["differ"] / r["rays"])
     out.append(f"- Disagreements with BVHTree: at most {worst['differ']} of {worst['rays']} "
-               f"rays ({worst['backend']}, {worst['mesh']}); tests/blender/test_bake.py "
+               f"rays ({worst['backend']}, {worst['mesh']}); tests/blender/prt/test_bake.py "
                "allows 1e-5 of the rays and says where the one numpy ray goes.")
     return out
 

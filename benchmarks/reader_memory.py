@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """Peak memory of every file reader on crafted bombs: the table of the readers' memory bound.
 
-Each bomb of ``tests/core/bombs_archives.py`` and ``tests/core/bombs_binary.py`` (the same
+Each bomb of ``tests/helpers/bombs_archives.py`` and ``tests/helpers/bombs_binary.py`` (the same
 files the default suite's memory tests use) is crafted in a temporary folder and read in a
 fresh interpreter; the figure is the peak resident memory the read added (``VmHWM`` after
-the read minus after the imports, ``tests/core/peak_memory.py``), against the bound
+the read minus after the imports, ``tests/helpers/peak_memory.py``), against the bound
 ``2 × decoded + 100 MB``, where *decoded* is the size of the data the file can really hold.
 
 ``--tree PATH`` reads with the package of another checkout (for example a ``git worktree``

@@ -14,8 +14,7 @@ import numpy as np
 
 from spectral_materials.blender.brdf import sources, storage
 from spectral_materials.core.brdf import metrics
-from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 
 from .images import write_linear_png
 

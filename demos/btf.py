@@ -19,12 +19,10 @@ import numpy as np
 
 from benchmarks.btf import fit_all
 from benchmarks.scenes import factory_scene
-from spectral_materials.blender.btf import fit as blender_btf
-from spectral_materials.blender.btf import storage as btf_storage
+from spectral_materials.blender.btf import fit as blender_btf, storage as btf_storage
 from spectral_materials.blender.viewport import draw
 from spectral_materials.core.brdf.shading import shading_frame, to_local
-from spectral_materials.core.btf import fit as btf_fit
-from spectral_materials.core.btf import generate as btf_generate
+from spectral_materials.core.btf import fit as btf_fit, generate as btf_generate
 from spectral_materials.core.colour import spectra
 
 from .images import write_display_png

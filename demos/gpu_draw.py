@@ -15,8 +15,7 @@ from spectral_materials.blender.gpu import batches as mesh_batches
 from spectral_materials.blender.gpu.matrices import set_matrix
 from spectral_materials.blender.lights import scene_lights
 from spectral_materials.core.brdf import metrics, shading
-from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 
 INCIDENCES = (0.0, 30.0, 60.0, 80.0)
 ILLUMINANTS = ("D65", "A", "FL2", "FL11")

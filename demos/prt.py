@@ -22,12 +22,9 @@ import numpy as np
 
 from benchmarks.scenes import factory_scene
 from spectral_materials.blender.lights import scene_lights
-from spectral_materials.blender.prt import drawer as prt_gpu
-from spectral_materials.blender.prt import images as prt_images
-from spectral_materials.blender.prt import scene as prt
+from spectral_materials.blender.prt import drawer as prt_gpu, images as prt_images, scene as prt
 from spectral_materials.blender.viewport import draw
-from spectral_materials.core.colour import metamers, spectra
-from spectral_materials.core.colour import pipeline as colour_pipeline
+from spectral_materials.core.colour import metamers, pipeline as colour_pipeline, spectra
 from spectral_materials.core.formats.spectral_exr import write_spectral_exr
 from spectral_materials.core.prt import reference as prt_reference
 

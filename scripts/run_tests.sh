@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test command: set up the pinned environment of each test leg (scripts/setup_env.sh LEG),
 # lint once, run the default (non-slow) suite on the oldest and the newest Blender (legs 4.5
-# and 5.3, OpenGL), the bpy/GPU/install tests (tests/blender, tests/gpu) on the two between
+# and 5.3, OpenGL), the tests marked bpy (bpy, GPU and install tests) on the two between
 # (5.0 and 5.2) and on 5.3 with Vulkan (Mesa lavapipe), then the main job in its quick mode
 # (every demo section at small sizes) on the default leg (.venv), so that what CI proves
 # includes the demo running to the end in one process on a clean checkout. Arguments go to
@@ -34,13 +34,13 @@ leg() {
   [ "$status" -eq 0 ] || failed+=("$name")
 }
 # OpenGL on these legs even where a Vulkan driver is installed (bpy 5.3 would pick Vulkan):
-# no Vulkan ICD, and tests/gpu checks the backend it got (SPECTRAL_GPU_BACKEND).
+# no Vulkan ICD, and the gpu-marked tests check the backend they got (SPECTRAL_GPU_BACKEND).
 export VK_ICD_FILENAMES=/nonexistent.json SPECTRAL_GPU_BACKEND=OPENGL
 for name in "${FULL_LEGS[@]}"; do
   leg "$name" "$@"
 done
 for name in "${BLENDER_LEGS[@]}"; do
-  leg "$name" tests/blender tests/gpu "$@"
+  leg "$name" -m "bpy and not slow" "$@"
 done
 # Vulkan: the bpy and GPU tests again on the newest Blender, through Mesa's lavapipe.
 lavapipe="$(compgen -G '/usr/share/vulkan/icd.d/lvp_icd.*.json' | head -n 1 || true)"
@@ -49,7 +49,7 @@ if [ -n "$lavapipe" ]; then
   # corruption; one render-sphere test in each of two clean runs, never on OpenGL:
   # docs/vulkan.md), so this leg reruns its failures once and says so.
   VK_ICD_FILENAMES="$lavapipe" SPECTRAL_GPU_BACKEND=VULKAN RERUN_FAILURES=1 \
-    leg 5.3 tests/blender tests/gpu "$@"
+    leg 5.3 -m "bpy and not slow" "$@"
 else
   echo "leg 5.3 on Vulkan: FAILED (no lavapipe ICD: apt-get install mesa-vulkan-drivers)"
   failed+=("5.3-vulkan")

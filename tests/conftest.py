@@ -1,10 +1,15 @@
-"""Session hooks shared by every test folder."""
+"""Session hooks shared by every test folder, and ``tests/helpers`` on ``sys.path`` (scene
+builders, model builders, memory probes and hostile files, imported by bare name from any
+folder of the tree)."""
 
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "helpers"))
 
 _STATUS: dict[str, int] = {}
 

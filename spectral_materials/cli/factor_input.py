@@ -58,8 +58,7 @@ def read_spectrum_csv(path: str) -> tuple[np.ndarray, np.ndarray]:
     """The add-on's reader (:func:`~..core.colour.spectrum_library.read_spectrum_csv`:
     two columns ``wavelength_nm,value``, headers, comments, decimal commas, UTF-16,
     reversed files, size and value limits), its errors as :class:`UsageError`."""
-    from ..core.colour.spectrum_library import SpectrumFileError
-    from ..core.colour.spectrum_library import read_spectrum_csv as read
+    from ..core.colour.spectrum_library import SpectrumFileError, read_spectrum_csv as read
 
     try:
         return read(path)

@@ -24,8 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .colour import pipeline as colour_pipeline
-from .colour import spectra
+from .colour import pipeline as colour_pipeline, spectra
 
 LIGHT_CODES = {"SUN": 0, "POINT": 1, "SPOT": 2, "AREA": 3}
 #: Closer than this (squared distance) a point light sits on the shaded point and

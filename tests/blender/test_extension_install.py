@@ -38,10 +38,10 @@ BUNDLED = ("colour", "scipy", "imageio", "PIL", "typing_extensions", "OpenEXR")
 STAGES = ("start", "import bpy", "read_homefile", "install", "enabled", "bundled wheels",
           "operator", "factor", "draw", "done")
 
-pytestmark = pytest.mark.skipif(
+pytestmark = [pytest.mark.bpy, pytest.mark.gpu, pytest.mark.skipif(
     importlib.util.find_spec("bpy") is None,
     reason="needs the bpy module (requirements/blender.txt)",
-)
+)]
 
 
 def this_platform() -> str | None:

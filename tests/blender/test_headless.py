@@ -14,6 +14,8 @@ from blender_helpers import spectral_material
 from spectral_materials import blender as addon
 from spectral_materials.blender.lights import plots
 
+pytestmark = pytest.mark.bpy
+
 SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "factor_scene.py"
 
 

@@ -10,6 +10,8 @@ import pytest
 
 pytest.importorskip("bpy")
 
+pytestmark = pytest.mark.bpy
+
 from spectral_materials import _moved
 
 ROOT = "spectral_materials"

@@ -10,6 +10,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
+
 from spectral_materials.blender.viewport import draw
 
 DATA = pathlib.Path(__file__).resolve().parents[1] / "data" / "premove"

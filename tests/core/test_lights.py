@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spectral_materials.core.colour import pipeline as colour_pipeline
-from spectral_materials.core.colour import spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 from spectral_materials.core.lights import LIGHT_CODES, MIN_DISTANCE_SQ, SpectralLight
 
 WL = spectra.WAVELENGTHS_REFERENCE

@@ -13,8 +13,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..lights.visibility import GEOMETRY_TYPES, scene_lights
-from ..lights.visibility import renders as _renders
+from ..lights.visibility import GEOMETRY_TYPES, renders as _renders, scene_lights
 from ..ui.enums import OBSERVER_NAMES
 from . import sources
 

@@ -21,10 +21,14 @@ from ...core.brdf import factor, models
 from ...core.brdf.params import get_parameterization
 from ...core.colour import spectra
 from ...core.formats.brdf_files import read_brdf_file
-from ..lights.spd import WAVELENGTHS, SourceError, light_spd
-from ..lights.spd import abspath as _abspath
-from ..lights.spd import finite as _finite
-from ..lights.spd import typed_or_csv as _typed_or_csv
+from ..lights.spd import (
+    WAVELENGTHS,
+    SourceError,
+    abspath as _abspath,
+    finite as _finite,
+    light_spd,
+    typed_or_csv as _typed_or_csv,
+)
 from .properties import MODEL_KEYS, PARAMETERIZATION_KEYS
 
 # SourceError, WAVELENGTHS and light_spd live in lights.spd (the lights layer must not

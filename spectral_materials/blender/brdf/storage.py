@@ -25,8 +25,10 @@ from dataclasses import replace
 import numpy as np
 
 from ...core.brdf.factored import FactoredBRDF, json_default
-from ..images import new_float_image as new_float_image  # served from here too (BTF, PRT)
-from ..images import remove_image as remove_image
+from ..images import (
+    new_float_image as new_float_image,  # served from here too (BTF, PRT)
+    remove_image as remove_image,
+)
 
 IMAGE_PREFIX = "SM factors "
 PLOT_PREFIX = "SM plot "

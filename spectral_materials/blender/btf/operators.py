@@ -7,8 +7,7 @@ import bpy
 from ...core.btf import job as btf_job
 from ..ui.modal_job import ModalJob
 from ..ui.widgets import active_material
-from . import fit as btf
-from . import storage as btf_storage
+from . import fit as btf, storage as btf_storage
 
 
 class SPECTRAL_OT_fit_btf(ModalJob, bpy.types.Operator):

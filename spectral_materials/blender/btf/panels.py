@@ -5,8 +5,7 @@ from __future__ import annotations
 import bpy
 
 from ..ui.modal_job import draw_job
-from . import drawer
-from . import fit as btf
+from . import drawer, fit as btf
 
 
 class SPECTRAL_PT_btf(bpy.types.Panel):

@@ -12,8 +12,7 @@ the old ``blender/eevee.py`` (now :mod:`.apply`), with a DeprecationWarning."""
 from __future__ import annotations
 
 from ..._moved import forward_to
-from ..brdf import hooks
-from ..brdf import panels as brdf_panels
+from ..brdf import hooks, panels as brdf_panels
 from . import apply, operators, panels
 
 __getattr__ = forward_to(__name__, "apply")

@@ -17,7 +17,7 @@ file: whatever the last draw left is still set when an offscreen is bound or ano
   back-face culling and the winding flipped left behind, a plane facing the camera draws
   nothing either. Every draw states all of it, and puts back what it can read.
 
-``tests/blender/test_gpu_state.py`` recreates both.
+``tests/blender/gpu/test_gpu_state.py`` recreates both.
 """
 
 from __future__ import annotations

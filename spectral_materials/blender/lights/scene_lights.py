@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.colour import pipeline as colour_pipeline
-from ...core.colour import spectra
+from ...core.colour import pipeline as colour_pipeline, spectra
 from ...core.lights import SpectralLight
 from ..gpu.display import DisplaySettings
 from .spd import WAVELENGTHS, SourceError, light_spd

@@ -10,8 +10,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ...core.prt import sh
-from ...core.prt import transfer as core_prt
+from ...core.prt import sh, transfer as core_prt
 from ..brdf import storage
 from ..gpu.mesh_arrays import evaluated_mesh
 from . import bake

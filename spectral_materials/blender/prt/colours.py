@@ -6,8 +6,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ...core.prt import albedo as core_albedo
-from ...core.prt import transfer as core_prt
+from ...core.prt import albedo as core_albedo, transfer as core_prt
 from ..gpu.mesh_arrays import evaluated_mesh, vertex_uvs
 from . import bake
 from .inputs import PRTError

@@ -24,8 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.prt import transfer as core_prt
-from ..gpu import batches as mesh_batches
-from ..gpu import shaders
+from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.matrices import set_matrix
 from ..gpu.mesh_arrays import (
@@ -41,8 +40,7 @@ from ..gpu.shaders import glsl_source
 from ..gpu.std140 import glsl_block
 from ..gpu.textures import array_texture, float_texture
 from ..viewport import registry
-from . import bake
-from . import scene as prt
+from . import bake, scene as prt
 
 TRANSFER_WIDTH = 4096
 #: Spectral coefficients the varyings carry (4 vec4).

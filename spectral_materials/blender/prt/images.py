@@ -16,8 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..viewport import draw
-from . import drawer as prt_gpu
-from . import scene as prt
+from . import drawer as prt_gpu, scene as prt
 
 
 @dataclass

@@ -7,8 +7,7 @@ import bpy
 
 from ..ui.modal_job import draw_job
 from ..ui.spectrum import draw_spectrum
-from . import drawer
-from . import scene as prt
+from . import drawer, scene as prt
 
 
 class SPECTRAL_PT_environment(bpy.types.Panel):

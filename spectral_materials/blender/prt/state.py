@@ -9,10 +9,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.prt import albedo as core_albedo
-from ...core.prt import environment as core_environment
-from ...core.prt import sh
-from ...core.prt import transfer as core_prt
+from ...core.prt import (
+    albedo as core_albedo,
+    environment as core_environment,
+    sh,
+    transfer as core_prt,
+)
 from ..brdf import storage
 from .albedo import albedo_source
 from .environment import environment_data, project, rotation_z

@@ -25,8 +25,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from ...core.brdf.shading import View
-from ..gpu import batches as mesh_batches
-from ..gpu import shaders
+from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings
 from ..gpu.matrices import normal_matrix, set_matrix
 from ..gpu.offscreen import Target
@@ -34,8 +33,7 @@ from ..gpu.state import spectral_draw_state
 from ..lights import scene_lights
 from ..lights.visibility import GEOMETRY_TYPES, renders
 from . import registry
-from .occluders import clear_cache as _clear_occluder_shader
-from .occluders import draw_occluders
+from .occluders import clear_cache as _clear_occluder_shader, draw_occluders
 from .registry import DrawFrame
 
 __all__ = ["DrawStats", "camera_view", "disable_viewport", "draw_objects", "drawable_objects",

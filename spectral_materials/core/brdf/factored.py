@@ -23,8 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..colour import pipeline as colour_pipeline
-from ..colour import spectra
+from ..colour import pipeline as colour_pipeline, spectra
 from .params import check_direction_pairs, get_parameterization
 from .tabulate import Grid, multilinear
 

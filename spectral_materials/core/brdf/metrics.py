@@ -13,8 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..colour import pipeline as colour_pipeline
-from ..colour import spectra
+from ..colour import pipeline as colour_pipeline, spectra
 
 SPHERE_SIZE = 256
 SPHERE_INCIDENCES_DEG = (0.0, 30.0, 60.0, 80.0)

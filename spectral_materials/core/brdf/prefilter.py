@@ -12,8 +12,7 @@ from __future__ import annotations
 import colour
 import numpy as np
 
-from ..colour import pipeline as colour_pipeline
-from ..colour import spectra
+from ..colour import pipeline as colour_pipeline, spectra
 from ..lights import SpectralLight
 from . import metrics
 from .factored import FactoredBRDF

@@ -214,8 +214,7 @@ def sphere_pixels(size: int) -> tuple[np.ndarray, np.ndarray]:
 def protocol_sun(incidence_deg: float, spd: np.ndarray | str = "D65",
                  wavelengths: np.ndarray | None = None) -> SpectralLight:
     """The sphere protocol's light: a sun of strength 1 at ``l = (sin α, 0, cos α)``."""
-    from ..colour import pipeline as colour_pipeline
-    from ..colour import spectra
+    from ..colour import pipeline as colour_pipeline, spectra
 
     wl = spectra.WAVELENGTHS_REFERENCE if wavelengths is None else wavelengths
     values = colour_pipeline.illuminant_spd(spd, wl)

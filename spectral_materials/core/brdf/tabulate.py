@@ -19,8 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..colour import pipeline as colour_pipeline
-from ..colour import spectra
+from ..colour import pipeline as colour_pipeline, spectra
 from ..colour.basis import LinearModelBasis
 from ..errors import InvalidBRDFData
 from ..progress import ProgressCallback, report

@@ -14,9 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..progress import report
-from . import fit as btf_fit
-from . import generate as btf_generate
-from . import render as btf_render
+from . import fit as btf_fit, generate as btf_generate, render as btf_render
 from .container import BTF, btf_from_ubo, reflectance_spectra
 
 SOURCES = ("corduroy", "knit", "stones", "ubo2003", "ubo2014")

@@ -50,8 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize
 
-from . import pipeline as colour_pipeline
-from . import spectra
+from . import pipeline as colour_pipeline, spectra
 
 #: Default shortest half-period (nm) of the cosine basis of the metameric black.
 SMOOTHNESS_NM = 40.0

@@ -35,8 +35,7 @@ import numpy as np
 from colour.difference import delta_E_CIE1994
 
 from ..progress import ProgressCallback, report
-from . import pipeline as colour_pipeline
-from . import spectra
+from . import pipeline as colour_pipeline, spectra
 from .basis import LinearModelBasis, light_cmf_spectra, linear_model_basis
 
 #: The fixed basis size the factor-pack paper uses for every scene (Schwenk et

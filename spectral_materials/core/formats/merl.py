@@ -68,8 +68,7 @@ from pathlib import Path
 import numpy as np
 
 from ..brdf.params import PARAMETERIZATIONS, _hd_forward
-from ..colour import spectra
-from ..colour import uplift as _uplift
+from ..colour import spectra, uplift as _uplift
 from ..errors import InvalidBRDFData
 from ..sample_limits import MAX_SAMPLE, extreme_mask
 from ._files import atomic_write, read_errors

@@ -145,8 +145,7 @@ def rgb_environment(environment) -> np.ndarray:
     """L̃ (K, 3) in linear sRGB, divided by π: each SH coefficient's spectrum to XYZ, then to
     sRGB (an RGB environment map holds these values), over π (the Lambertian BRDF's), so
     that (T̃ · L̃) ⊙ albedo is the outgoing radiance as in :func:`vertex_xyz`."""
-    from ..colour import pipeline as colour_pipeline
-    from ..colour import spectra
+    from ..colour import pipeline as colour_pipeline, spectra
 
     wl = environment.wavelengths
     spectral = environment.coefficients if environment.basis is None else \
@@ -158,8 +157,7 @@ def rgb_environment(environment) -> np.ndarray:
 def rgb_albedo(albedo: np.ndarray, wavelengths: np.ndarray) -> np.ndarray:
     """Linear sRGB (…, 3) of reflectance spectra (…, L) under D65, white → (1, 1, 1): the
     texture an RGB pipeline would be given."""
-    from ..colour import pipeline as colour_pipeline
-    from ..colour import spectra
+    from ..colour import pipeline as colour_pipeline, spectra
 
     wl = spectra.check_wavelengths(wavelengths)
     weights = colour_pipeline.xyz_weights("D65", wl)

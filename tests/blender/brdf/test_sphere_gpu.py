@@ -1,0 +1,117 @@
+"""The protocol sphere drawn by the shaders against the float64 mirror (core/brdf/shading.py).
+
+Every parameterisation, incidences 0–80°, both spectral modes (pre-contracted
+light weights and the paper's per-coefficient dot products), the four protocol
+illuminants; the issue's bound is max ΔE94 ≤ 0.1 over the sphere.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from gpu_helpers import MAX_DE94, PARAMETERIZATIONS, RESOLUTIONS, SIZE, WL, delta_e, protocol_pair
+
+from spectral_materials.blender.brdf.sphere import render_sphere
+from spectral_materials.core.brdf import models, shading
+from spectral_materials.core.brdf.factor import factor_brdf
+
+pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
+
+#: (incidence in degrees, illuminant): each illuminant at least once.
+CASES = ((0.0, "D65"), (30.0, "A"), (60.0, "FL2"), (80.0, "FL11"))
+
+
+def _max_de(model, incidence, illuminant, **kw) -> tuple[float, np.ndarray]:
+    got, reference = protocol_pair(model, incidence, illuminant, **kw)
+    return float(delta_e(reference, got, illuminant).max()), reference
+
+
+@pytest.mark.parametrize("precontract", [True, False], ids=["precontract", "per_coefficient"])
+@pytest.mark.parametrize("parameterization", PARAMETERIZATIONS)
+def test_sphere_matches_mirror(factored, parameterization, precontract):
+    model = factored(parameterization)
+    figures = {}
+    for incidence, illuminant in CASES:
+        de, reference = _max_de(model, incidence, illuminant, precontract=precontract)
+        assert (reference[:, 1] > 1e-3).sum() > 500, "the sphere is barely lit"
+        figures[f"{incidence:g}° {illuminant}"] = de
+    mode = "precontract" if precontract else "per-coefficient"
+    print(f"\n{parameterization:>6} {mode:>15}: max ΔE94 "
+          + ", ".join(f"{k} {v:.2e}" for k, v in figures.items()))
+    worst = max(figures, key=figures.get)
+    assert figures[worst] <= MAX_DE94, f"{worst}: max ΔE94 {figures[worst]:.4g}"
+
+
+@pytest.mark.parametrize("illuminant", ["D65", "A", "FL2", "FL11"])
+def test_every_illuminant_at_normal_incidence(factored, illuminant):
+    de, _ = _max_de(factored("hd"), 0.0, illuminant)
+    assert de <= MAX_DE94
+
+
+@pytest.mark.parametrize("parameterization", ["io", "hd_iso"])
+def test_not_cosine_weighted(factored, parameterization):
+    """A model of f (not f·cosθi): the shader multiplies by cosθi itself."""
+    model = factored(parameterization, cosine_weighted=False)
+    assert not model.cosine_weighted
+    for incidence, illuminant in CASES:
+        for precontract in (True, False):
+            de, _ = _max_de(model, incidence, illuminant, precontract=precontract)
+            assert de <= MAX_DE94, f"{incidence}° {illuminant} {precontract}: {de:.4g}"
+
+
+@pytest.mark.parametrize("parameterization", ["io", "hd"])
+def test_edge_clamp(factored, parameterization):
+    """edge == "clamp" holds the end cells instead of extrapolating; the shader follows."""
+    linear = factored(parameterization)
+    clamped = replace(linear, edge="clamp")
+    change = 0.0
+    for incidence, illuminant in CASES:
+        de, _ = _max_de(clamped, incidence, illuminant)
+        assert de <= MAX_DE94, f"{incidence}°: {de:.4g}"
+        # The rule reaches the shader: where a θ lies outside the end cell centres
+        # (θo near the rim, θd ≈ 0 at normal incidence) the two images differ.
+        a = render_sphere(linear, incidence, illuminant, SIZE)
+        b = render_sphere(clamped, incidence, illuminant, SIZE)
+        change = max(change, float(delta_e(a[..., :3], b[..., :3], illuminant).max()))
+    assert change > 10 * MAX_DE94
+
+
+def test_packs_truncation(factored):
+    """Drawing ``packs=1`` of a 4-pack model is drawing ``model.truncated(1)``."""
+    model = factored("hd")
+    assert model.packs == 4
+    first = model.truncated(1)
+    for incidence, illuminant in CASES:
+        for precontract in (True, False):
+            image = render_sphere(model, incidence, illuminant, SIZE, packs=1,
+                                  precontract=precontract)
+            reference, mask = shading.sphere_xyz(first, incidence, illuminant, SIZE)
+            got = image[mask][:, :3].astype(np.float64)
+            de = delta_e(reference[mask], got, illuminant)
+            assert de.max() <= MAX_DE94, f"{incidence}° {precontract}: {de.max():.4g}"
+            scale = np.abs(reference).max()
+            np.testing.assert_allclose(got, reference[mask], rtol=0, atol=1e-5 * scale)
+    # and truncation changes the picture: the other three packs matter.
+    full, mask = shading.sphere_xyz(model, 30.0, "A", SIZE)
+    one, _ = shading.sphere_xyz(first, 30.0, "A", SIZE)
+    assert delta_e(full[mask], one[mask], "A").max() > 10 * MAX_DE94
+
+
+def test_packs_beyond_the_model_draw_everything(factored):
+    model = factored("io_iso")
+    a = render_sphere(model, 30.0, "D65", SIZE)
+    b = render_sphere(model, 30.0, "D65", SIZE, packs=99)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_packs_truncation_with_pack_size_3():
+    """A known mismatch, kept visible: with pack_size 3, packs=2 draws 8 terms, not 6."""
+    brdf = models.make_model("ashikhmin_shirley", nu=32.0, nv=32.0, diffuse=0.4)
+    model = factor_brdf(brdf, parameterization="hd_iso", resolution=RESOLUTIONS["hd_iso"],
+                        packs=3, pack_size=3, spectral_basis=8, wavelengths=WL)
+    image = render_sphere(model, 30.0, "A", SIZE, packs=2)                  # 6 terms
+    reference, mask = shading.sphere_xyz(model.truncated(2), 30.0, "A", SIZE)
+    de = delta_e(reference[mask], image[mask][:, :3].astype(np.float64), "A")
+    assert de.max() <= MAX_DE94
