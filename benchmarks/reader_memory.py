@@ -22,8 +22,8 @@ from pathlib import Path
 
 from . import harness
 
-# The bombs and the peak-memory runner are the default suite's (tests/core/).
-sys.path.insert(0, str(harness.ROOT / "tests" / "core"))
+# The bombs and the peak-memory runner are the default suite's (tests/helpers/).
+sys.path.insert(0, str(harness.ROOT / "tests" / "helpers"))
 
 import bombs_archives  # noqa: E402
 import bombs_binary  # noqa: E402

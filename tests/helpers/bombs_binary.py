@@ -216,7 +216,10 @@ def _merl_valid(directory: Path) -> Path:
 
 # --------------------------------------------------------------------------- spectrum CSV
 
-_CSV_SETUP = "from spectral_materials.core.colour import spectrum_library"
+# The second path is the layout before issue 17, for benchmarks.reader_memory --tree runs on
+# older commits.
+_CSV_SETUP = ("try:\n    from spectral_materials.core.colour import spectrum_library\n"
+              "except ImportError:\n    from spectral_materials.core import spectrum_library")
 _CSV_CALL = "spectrum_library.read_spectrum_csv(PATH)"
 _CSV_LIMIT = 10 * MB  # spectrum_library.MAX_CSV_BYTES: the bombs sit just below it
 _ROW = b"1,1\n"
