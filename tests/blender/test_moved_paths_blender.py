@@ -45,3 +45,27 @@ def test_old_blender_modules_now_packages_forward_their_names(package, module):
     pkg = importlib.import_module(f"{ROOT}.{package}")
     with pytest.warns(DeprecationWarning, match=rf"{package}\.{module}\.{name}"):
         assert getattr(pkg, name) is getattr(new, name)
+
+
+def test_the_readme_api_of_the_release_before_still_works():
+    """README.md's examples as they were written before the move (issue 17)."""
+    for old in ("blender.jobs", "blender.storage", "core.btf_generate", "core.btf_fit",
+                "core.models", "core.spectra", "core.metrics"):
+        _forget(old)
+    with pytest.warns(DeprecationWarning):
+        from spectral_materials.blender import btf, jobs, prt, storage
+        from spectral_materials.core import (  # never moved
+            FactoredBRDF,
+            btf_fit,
+            btf_generate,
+            factor_brdf,
+            metrics,
+            models,
+            spectra,
+        )
+        calls = (jobs.factor_scene, storage.load_factored, prt.bake_prt, prt.vertex_xyz,
+                 prt.vertex_reference_xyz, btf_generate.generate_btf, btf_fit.fit_rfnl,
+                 btf_fit.epsilon, btf.fit_btf, models.AshikhminShirley,
+                 spectra.colorchecker_spectrum, metrics.random_direction_pairs,
+                 factor_brdf, FactoredBRDF.load)
+    assert all(callable(c) for c in calls)
