@@ -36,7 +36,8 @@ def _rank(layers) -> dict[str, int]:
 
 def test_no_module_imports_itself_back():
     found = cycles(module_graph())
-    assert not found, "import cycles:\n" + "\n".join(" -> ".join(c) for c in found)
+    assert not found, "modules that import each other round a circle:\n" + "\n".join(
+        ", ".join(c) for c in found)
 
 
 def test_core_packages_import_only_from_layers_below():
