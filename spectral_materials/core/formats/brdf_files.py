@@ -16,7 +16,7 @@ def _tabulated(path):
 def _merl(path):
     from .merl import read_merl
 
-    return read_merl(path)
+    return read_merl(path, fill="neighbours")  # −1 and invalid cells from their neighbours
 
 
 def _rgl(path):

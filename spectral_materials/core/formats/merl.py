@@ -27,10 +27,11 @@ Matusik's ``BRDFRead.cpp``)
   snaps θh below 1e-3 rad to 0 as a float32 safeguard; this float64 reader,
   like Matusik's original code, does not.)
 * Either direction at or below the horizon gives 0.
-* Cells marked −1 (below-horizon centres) read as 0. Near grazing, a pair of
-  directions above the horizon can fall into such a cell (about 0.5 % of
-  uniformly drawn pairs): the nearest-cell reference has no value there either
-  (it returns −1 × scale); this reader returns 0 and does not fill them in.
+* Cells marked −1 (below-horizon centres) are filled from their valid
+  neighbours (below). Near grazing, a pair of directions above the horizon can
+  fall into such a cell (about 0.5 % of uniformly drawn pairs): the nearest-cell
+  reference has no value there (it returns −1 × scale); this reader returns the
+  filled value, or 0 with ``fill="zero"``.
 
 Reading
 -------
@@ -39,8 +40,14 @@ allocates anything, then reads the three channels; damage becomes
 :class:`InvalidBRDFData` naming the file and the problem. Negative samples
 (the −1 markers) are part of the format: they are counted in
 ``defects["negative"]`` (``defects["below_horizon_marker"]`` those exactly −1)
-and set to 0. NaN/inf samples raise by default; ``on_invalid="clamp"`` sets them
-to 0 and counts them. A file with no valid sample at all is refused either way, and
+and filled. NaN/inf samples raise by default; ``on_invalid="clamp"`` counts them
+and fills them too.
+
+The fill (``fill="neighbours"``, default; the rule in :mod:`.merl_fill`): per
+channel, pass after pass, each invalid sample takes the mean of its valid face
+neighbours (θh, θd clamped; φd wraps, π-periodic by reciprocity); valid samples
+are never changed. ``fill="zero"`` sets them to 0 (the behaviour before). A
+file with no valid sample at all is refused either way, and
 so is one with a finite sample beyond ±10³⁰ sr⁻¹ once scaled, negative or not (no
 measurement or marker looks like that, and later arithmetic would overflow; see
 :mod:`spectral_materials.core.sample_limits`). The body is read one channel at a
@@ -72,6 +79,7 @@ from ..colour import spectra, uplift as _uplift
 from ..errors import InvalidBRDFData
 from ..sample_limits import MAX_SAMPLE, extreme_mask
 from ._files import atomic_write, read_errors
+from .merl_fill import apply_fill, check_fill
 
 __all__ = [
     "CHANNEL_SCALES",
@@ -187,11 +195,12 @@ class MERLBRDF:
     ----------
     table : ndarray (90, 90, 180, 3) float32
         BRDF in sr⁻¹ per (θh, θd, φd) cell and R, G, B (channel scales applied;
-        invalid samples set to 0).
+        invalid samples filled from their neighbours, or 0 with ``fill="zero"``).
     defects : dict
         ``nan``, ``inf``, ``negative`` (of which ``below_horizon_marker``: exactly
         −1 in the file) sample counts, ``invalid_cells`` (cells with any of them),
-        ``first``: where the first non-finite one was.
+        ``first``: where the first non-finite one was; ``fill`` (the rule) and
+        ``filled_samples``, ``filled_cells``, ``fill_passes``.
     uplift : callable
         ``uplift(rgb (N, 3), wavelengths) -> (N, L)`` (:class:`~..colour.uplift.SmitsUplift`, ...).
     path : Path or None
@@ -303,12 +312,13 @@ def _refuse_extreme(values: np.ndarray, channel: int, shape) -> None:
 
 
 def _read_body(path: Path, shape: tuple[int, int, int], on_invalid: str
-               ) -> tuple[np.ndarray, dict]:
+               ) -> tuple[np.ndarray, dict, np.ndarray]:
+    """The table (invalid samples set to 0), the defects and the (…, 3) mask of invalid samples."""
     n = math.prod(shape)
     table = np.empty((n, 3), dtype=np.float32)
     counts = {"nan": 0, "inf": 0, "negative": 0, "below_horizon_marker": 0}
     first = ""
-    bad_cells = np.zeros(n, dtype=bool)
+    bad = np.zeros((n, 3), dtype=bool)
     with open(path, "rb") as stream:
         stream.seek(HEADER_BYTES)
         for c, scale in enumerate(CHANNEL_SCALES):
@@ -325,13 +335,13 @@ def _read_body(path: Path, shape: tuple[int, int, int], on_invalid: str
             nonfinite = nan | inf
             if not first and nonfinite.any():
                 first = _describe_cell(int(np.argmax(nonfinite)), c, shape)
-            bad = nonfinite | neg
-            bad_cells |= bad
+            bad[:, c] = nonfinite | neg
             values = raw * scale
             _refuse_extreme(values, c, shape)
-            values[bad] = 0.0
+            values[bad[:, c]] = 0.0
             table[:, c] = values
     defects: dict = dict(counts)
+    bad_cells = bad.any(axis=1)
     defects["invalid_cells"] = int(bad_cells.sum())
     if bad_cells.all():
         raise _Invalid(f"all {n:,} cells hold invalid samples ({counts['nan']} NaN, "
@@ -339,16 +349,17 @@ def _read_body(path: Path, shape: tuple[int, int, int], on_invalid: str
     if counts["nan"] or counts["inf"]:
         if on_invalid != "clamp":
             raise _Invalid(f"{counts['nan']} NaN and {counts['inf']} inf samples of {3 * n:,}; "
-                           f"first at {first} (read with on_invalid='clamp' to set them to 0)")
+                           f"first at {first} (read with on_invalid='clamp' to replace them)")
         defects["first"] = first
-    return table.reshape(shape + (3,)), defects
+    return table.reshape(shape + (3,)), defects, bad.reshape(shape + (3,))
 
 
 def _read_merl(path, *, uplift="smits1999", on_invalid: str = "raise", jakob_lut=None,
-               shape: tuple[int, int, int] = MERL_SHAPE) -> MERLBRDF:
+               shape: tuple[int, int, int] = MERL_SHAPE, fill: str = "neighbours") -> MERLBRDF:
     """:func:`read_merl` for a given expected ``shape`` (small files, for tests)."""
     if on_invalid not in ("raise", "clamp"):
         raise ValueError(f"on_invalid must be 'raise' or 'clamp', got {on_invalid!r}")
+    check_fill(fill)
     method = _uplift.make_uplift(uplift, jakob_lut)
     path = Path(path)
     if not path.is_file():
@@ -379,12 +390,13 @@ def _read_merl(path, *, uplift="smits1999", on_invalid: str = "raise", jakob_lut
             what = "truncated" if size < expected else "has trailing bytes"
             raise _Invalid(f"{what}: {size:,} bytes, a MERL file of {tuple(shape)} cells has "
                            f"{expected:,}")
-        table, defects = _read_body(path, tuple(shape), on_invalid)
+        table, defects, bad = _read_body(path, tuple(shape), on_invalid)
+    defects.update(apply_fill(table, bad, fill))
     return MERLBRDF(table=table, defects=defects, uplift=method, path=path)
 
 
 def read_merl(path, *, uplift="smits1999", on_invalid: str = "raise",
-              jakob_lut=None) -> MERLBRDF:
+              fill: str = "neighbours", jakob_lut=None) -> MERLBRDF:
     """Read a MERL ``.binary`` BRDF, validating it before loading the samples.
 
     Parameters
@@ -394,9 +406,12 @@ def read_merl(path, *, uplift="smits1999", on_invalid: str = "raise",
         ``uplift(rgb (N, 3), wavelengths) -> (N, L)``).
     on_invalid : {"raise", "clamp"}
         NaN/inf samples: raise :class:`InvalidBRDFData` with their counts and the
-        first location, or set them to 0 and count them in ``defects``. Negative
-        samples (the format's below-horizon marker −1) are always set to 0 and
-        counted.
+        first location, or replace them by the ``fill`` rule and count them in
+        ``defects``. Negative samples (the format's below-horizon marker −1) are
+        always replaced by the ``fill`` rule and counted.
+    fill : {"neighbours", "zero"}
+        What replaces them: the mean of valid grid neighbours (the rule of
+        :mod:`.merl_fill`; counts in ``defects["filled_cells"]`` etc.) or 0.
     jakob_lut : LUT3D_Jakob2019, optional
         For ``"jakob2019"``; default :func:`jakob2019_lut` (size 8, cached).
 
@@ -411,7 +426,7 @@ def read_merl(path, *, uplift="smits1999", on_invalid: str = "raise",
         If the file cannot be opened at all (missing, a directory, no permission).
     """
     return _read_merl(path, uplift=uplift, on_invalid=on_invalid, jakob_lut=jakob_lut,
-                      shape=MERL_SHAPE)
+                      shape=MERL_SHAPE, fill=fill)
 
 
 # --------------------------------------------------------------------------- writing

@@ -97,12 +97,16 @@ def test_file_layout(written):
 
 
 def test_round_trip(written, brdf, below):
-    _, table = written
+    path, table = written
     assert brdf.table.dtype == np.float32 and brdf.table.shape == (90, 90, 180, 3)
     expected = np.where(table < 0, 0.0, table).astype(np.float32)
-    np.testing.assert_allclose(brdf.table, expected, rtol=1e-6, atol=0)
+    zero = merl.read_merl(path, fill="zero")  # −1 cells read as 0, as before the fill
+    np.testing.assert_allclose(zero.table, expected, rtol=1e-6, atol=0)
+    # The default fills the −1 cells (test_formats_merl_fill.py) and leaves the others be.
+    assert np.array_equal(brdf.table[~below], zero.table[~below])
+    assert (brdf.table[below] > 0).all()
     assert brdf.defects["negative"] == brdf.defects["below_horizon_marker"] == 3 * below.sum()
-    assert brdf.defects["invalid_cells"] == below.sum()
+    assert brdf.defects["invalid_cells"] == brdf.defects["filled_cells"] == below.sum()
     assert brdf.defects["nan"] == brdf.defects["inf"] == 0
     assert 0.2 < below.mean() < 0.3
     assert brdf.describe()["shape"] == [90, 90, 180]
@@ -200,11 +204,11 @@ def test_lambert_albedo(tmp_path, below):
     b = merl.read_merl(path)
     wi, wo = _random_pairs(1000)
     # Near grazing, a pair can fall in a cell whose centre is below the horizon (marked −1
-    # in the file): the reference's nearest-cell lookup then has no value and gives 0.
+    # in the file): the reference's nearest-cell lookup then has no value; fill="zero"
+    # gives 0 there, the default fill the mean of the valid neighbours: albedo/π here.
     marked = below.ravel()[b.cell_index(wi, wo)]
-    assert marked.mean() < 0.02
-    assert not b.rgb(wi[marked], wo[marked]).any()
-    wi, wo = wi[~marked], wo[~marked]
+    assert 0 < marked.mean() < 0.02
+    assert not merl.read_merl(path, fill="zero").rgb(wi[marked], wo[marked]).any()
     np.testing.assert_allclose(b.rgb(wi, wo), np.broadcast_to(albedo / np.pi, wi.shape),
                                rtol=1e-6)
     sd = RGB_to_sd_Smits1999(albedo)
@@ -364,11 +368,16 @@ def test_nan_samples_raise_or_clamp(tmp_path):
     with pytest.raises(InvalidBRDFData, match=r"1 NaN and 1 inf") as info:
         merl._read_merl(path, shape=SMALL)
     assert str(path) in str(info.value) and "channel G" in str(info.value)
-    b = merl._read_merl(path, shape=SMALL, on_invalid="clamp")
+    b = merl._read_merl(path, shape=SMALL, on_invalid="clamp", fill="zero")
     assert b.defects["nan"] == 1 and b.defects["inf"] == 1
     assert b.defects["negative"] == 3 and b.defects["invalid_cells"] == 3
     assert b.table[1, 2, 3, 1] == 0 and b.table[2, 0, 5, 2] == 0 and b.table[0, 0, 0].sum() == 0
     assert np.isfinite(b.table).all()
+    filled = merl._read_merl(path, shape=SMALL, on_invalid="clamp")
+    assert np.isfinite(filled.table).all() and (filled.table > 0).all()
+    assert filled.defects["filled_samples"] == 5 and filled.defects["filled_cells"] == 3
+    bad = np.isnan(table) | np.isinf(table) | (table < 0)
+    assert np.array_equal(filled.table[~bad], b.table[~bad])
 
 
 def test_all_invalid(tmp_path):
