@@ -125,6 +125,27 @@ def install(root: str) -> None:
         sys.meta_path.append(MovedModuleFinder(root))
 
 
+def forward_names(module: str, moved: dict[str, str]):
+    """A module ``__getattr__`` for names that left ``module`` for another module.
+
+    ``moved`` maps each old name to ``"<new module>"`` (same name there) or
+    ``"<new module>:<new name>"``, the new module relative to the package root. The new
+    module is imported by name on first use, so the forward adds no import to ``module``
+    (a lower layer may forward to a higher one)."""
+    root = __name__.rpartition(".")[0]
+
+    def __getattr__(name: str):
+        target = moved.get(name)
+        if target is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        new_module, _, new_name = target.partition(":")
+        new_module, new_name = f"{root}.{new_module}", new_name or name
+        _warn(f"{module}.{name}", f"{new_module}.{new_name}", stacklevel=3)
+        return getattr(importlib.import_module(new_module), new_name)
+
+    return __getattr__
+
+
 def forward_to(package: str, module: str):
     """A module ``__getattr__`` for ``package`` that serves the names of the old module of
     the same name, now ``package.module``, with a DeprecationWarning."""

@@ -11,17 +11,16 @@ it moved to the factor-pack package, which this lower layer must not import.
 
 from __future__ import annotations
 
-import importlib
-import warnings
-
 import numpy as np
 
+from ..._moved import forward_names
 from .context import ensure_gpu
 from .state import spectral_draw_state
 
 MAX_SIZE = 8192
 #: Names that left this module: name → (module relative to this package's parent).
-_MOVED = {"render_sphere": "brdf.sphere"}
+# render_sphere moved to the brdf package, served from here for one release.
+__getattr__ = forward_names(__name__, {"render_sphere": "blender.brdf.sphere"})
 
 
 def check_size(width: int, height: int) -> None:
@@ -69,14 +68,3 @@ class Target:
         self._state.__exit__(*exc)
         self._bound.__exit__(*exc)
         self.offscreen.free()
-
-
-def __getattr__(name: str):
-    if name not in _MOVED:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    parent = __name__.rpartition(".")[0].rpartition(".")[0]
-    new = f"{parent}.{_MOVED[name]}"
-    warnings.warn(f"{__name__}.{name} moved to {new}.{name}; the old path goes in the next "
-                  "release", DeprecationWarning, stacklevel=2)
-    # By name, not an import statement: the forward is no dependency of this layer.
-    return getattr(importlib.import_module(new), name)

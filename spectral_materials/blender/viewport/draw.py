@@ -16,14 +16,13 @@ file load and on unregister, which also remove the handler.
 from __future__ import annotations
 
 import atexit
-import importlib
-import warnings
 from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
+from ..._moved import forward_names
 from ...core.brdf.shading import View
 from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings
@@ -47,7 +46,9 @@ VIEWPORT_ERROR = ""
 #: What the last viewport draw drew (shown in the panel).
 LAST_STATS = None
 #: Names that left this module for a drawer: name → module relative to ``blender``.
-_MOVED = {"gpu_material": "brdf.drawer", "FAILED": "brdf.drawer", "_MATERIALS": "brdf.drawer"}
+# Names that moved to the factor-pack drawer, served from here for one release.
+__getattr__ = forward_names(__name__, dict.fromkeys(("gpu_material", "FAILED", "_MATERIALS"),
+                                                 "blender.brdf.drawer"))
 
 
 @dataclass
@@ -317,13 +318,3 @@ def unregister() -> None:
             handlers.remove(function)
     disable_viewport()
     reset()
-
-
-def __getattr__(name: str):
-    if name not in _MOVED:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    new = f"{__name__.rpartition('.')[0].rpartition('.')[0]}.{_MOVED[name]}"
-    warnings.warn(f"{__name__}.{name} moved to {new}.{name}; the old path goes in the next "
-                  "release", DeprecationWarning, stacklevel=2)
-    # By name, not an import statement: the handler depends on no drawer.
-    return getattr(importlib.import_module(new), name)

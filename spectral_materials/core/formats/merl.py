@@ -67,13 +67,13 @@ into spectra with ``"smits1999"`` (Smits 1999, linear basis) or ``"jakob2019"``
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..._moved import forward_names
 from ..brdf.params import PARAMETERIZATIONS, _hd_forward
 from ..colour import spectra, uplift as _uplift
 from ..errors import InvalidBRDFData
@@ -105,28 +105,18 @@ CHUNK_POINTS = 1 << 16
 
 _HALF_PI = 0.5 * math.pi
 
-#: Old name here → new name in :mod:`..colour.uplift` (moved in issue 17): still served, with a
-#: DeprecationWarning, for one release.
-_MOVED_TO_UPLIFT = {
-    "UPLIFTS": "UPLIFTS",
-    "JAKOB2019_LUT_SIZE": "JAKOB2019_LUT_SIZE",
-    "SmitsUplift": "SmitsUplift",
-    "Jakob2019Uplift": "Jakob2019Uplift",
-    "jakob2019_lut": "jakob2019_lut",
-    "_make_uplift": "make_uplift",
-    "_cache_dir": "_cache_dir",
-    "_LUTS": "_LUTS",
-}
-
-
-def __getattr__(name: str):
-    """The uplift names that moved to ``core.colour.uplift``, with a DeprecationWarning."""
-    new = _MOVED_TO_UPLIFT.get(name)
-    if new is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(f"{__name__}.{name} moved to {_uplift.__name__}.{new}; the old path goes in "
-                  "the next release", DeprecationWarning, stacklevel=2)
-    return getattr(_uplift, new)
+# The uplift names that moved to core.colour.uplift in issue 17 (old name → new home), still
+# served from here, with a DeprecationWarning, for one release.
+__getattr__ = forward_names(__name__, {
+    "UPLIFTS": "core.colour.uplift",
+    "JAKOB2019_LUT_SIZE": "core.colour.uplift",
+    "SmitsUplift": "core.colour.uplift",
+    "Jakob2019Uplift": "core.colour.uplift",
+    "jakob2019_lut": "core.colour.uplift",
+    "_make_uplift": "core.colour.uplift:make_uplift",
+    "_cache_dir": "core.colour.uplift",
+    "_LUTS": "core.colour.uplift",
+})
 
 
 # --------------------------------------------------------------------------- indexing
