@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -93,7 +94,8 @@ class Block:
     name: str
     fields: tuple[Field, ...]
 
-    @property
+    # Cached: pack() runs per material per draw, and the layout never changes.
+    @cached_property
     def offsets(self) -> dict[str, int]:
         """Byte offset of each field."""
         out, offset = {}, 0
@@ -103,7 +105,7 @@ class Block:
             offset += field.size
         return out
 
-    @property
+    @cached_property
     def size(self) -> int:
         """Bytes of the block: the end of its last field, rounded up to a vec4 (rule 9)."""
         last = self.fields[-1]
