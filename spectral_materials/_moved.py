@@ -5,8 +5,10 @@ Until then ``spectral_materials.core.cp`` and its kind still import: a finder on
 ``DeprecationWarning`` that names the new path. Five old modules share their name with a
 new package (``core.btf``, ``core.prt``, ``blender.btf``, ``blender.prt``,
 ``blender.eevee``); there the package forwards the old module's names
-(:func:`forward_to`). Remove this file, its installation in ``spectral_materials/__init__``
-and the ``forward_to`` lines in those five packages in the release after 0.x."""
+(:func:`forward_to`). Names that left a module that still exists (``viewport.draw``,
+``gpu.offscreen``, ``formats.merl``) are served there by :func:`forward_names`. Remove
+this file, its installation in ``spectral_materials/__init__`` and the ``forward_to`` /
+``forward_names`` lines in the release after 0.x."""
 
 from __future__ import annotations
 
