@@ -31,6 +31,7 @@ from spectral_materials.blender.brdf import jobs
 from spectral_materials.core.progress import TerminalProgress
 
 from . import btf, eevee, gpu_draw, prt
+from .backend import CHOICES
 from .brdf import REPO, factor_figures, reload_check
 from .report import write_report
 from .scene import build_scene
@@ -46,6 +47,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="every section at small sizes (a few minutes): proves the main "
                         "job runs; its figures are not results")
     parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--gpu-backend", choices=CHOICES, default="auto",
+                        help="auto (default): OpenGL on a Linux machine without a GPU device "
+                        "(lavapipe's Vulkan aborts a few %% of processes, docs/vulkan.md), "
+                        "else Blender's choice; must be decided before bpy is imported, "
+                        "which scripts/demo.py and python -m demos do")
     return parser.parse_args(argv)
 
 

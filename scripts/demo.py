@@ -8,6 +8,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from demos.backend import choose_backend
+
+choose_backend(sys.argv[1:])    # before demos.main imports bpy
+
 from demos.main import run
 
 if __name__ == "__main__":
