@@ -33,7 +33,7 @@ Usage::
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -216,7 +216,11 @@ def run_case(case: Case, settings: str, options: FactorOptions,
                 f"{options.resolution}, {options.packs} packs, basis {choice.size}")
     job = factor_material(case.brdf, choice.basis, options)
     model = job.model
-    return {"case": case.name, "note": case.note, "settings": settings,
+    # The edge rule is a lookup rule: the same packs, measured under the rule before
+    # issue 18 ("linear") and the one they are stored with.
+    before = replace(model, edge="linear")
+    return {"edge": model.edge, "errors_linear_edge": pairs.errors(before, reference),
+            "case": case.name, "note": case.note, "settings": settings,
             "parameterization": options.parameterization,
             "resolution": list(options.resolution), "packs": model.packs,
             "basis_size": choice.size, "basis_max_de94": choice.max_de94,
@@ -282,14 +286,31 @@ def main_table(result: dict) -> list[str]:
     return lines
 
 
-def band_table(result: dict) -> list[str]:
+def edge_table(result: dict) -> list[str]:
+    """The same packs under the linear edge rule (before) and their own (after)."""
+    lines = ["| case | settings | light | edge | mean | p95 | "
+             f"max <{GRAZING_DEG:g}° | max ≥{GRAZING_DEG:g}° | band >89.9° mean / max |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in result["rows"]:
+        for ill in r["errors"]:
+            for label, e in (("linear (before)", r["errors_linear_edge"][ill]),
+                             (f"{r['edge']} (after)", r["errors"][ill])):
+                last = e["bands"][-1]
+                lines.append(
+                    f"| {r['case']} | {r['settings']} | {ill} | {label} | {e['mean']:.3f} | "
+                    f"{e['p95']:.3f} | {e['max_below']:.2f} | {e['max_beyond']:.2f} | "
+                    f"{last['mean']:.2f} / {last['max']:.2f} |")
+    return lines
+
+
+def band_table(result: dict, key: str = "errors") -> list[str]:
     """Mean / max ΔE94 per band of max(θi, θo)."""
-    first = result["rows"][0]["errors"][ILLUMINANTS[0]]["bands"]
+    first = result["rows"][0][key][ILLUMINANTS[0]]["bands"]
     heads = [f"{_band_label(b)} (n = {b['count']})" for b in first]
     lines = ["| case | settings | light | " + " | ".join(heads) + " |",
              "|---|---|---|" + "---|" * len(heads)]
     for r in result["rows"]:
-        for ill, e in r["errors"].items():
+        for ill, e in r[key].items():
             cells = ["–" if b["mean"] is None else f"{b['mean']:.2f} / {b['max']:.2f}"
                      for b in e["bands"]]
             lines.append(f"| {r['case']} | {r['settings']} | {ill} | "
@@ -328,8 +349,18 @@ def markdown(result: dict) -> list[str]:
         "~1e-12) gives Orange gloss (demo) a mean of 0.140 instead of 0.147, so read "
         "differences of a few per cent as noise.", "",
         *main_table(result), "",
+        "## The edge rule: the same packs before and after", "",
+        "New factor packs of a cosine-weighted table are stored with the *horizon* edge "
+        "rule (core/brdf/axes.py: beyond the last θi cell centre f·cosθi falls linearly "
+        "to 0 at 90°), where before every lookup extrapolated linearly. The rule only "
+        "changes lookups, so these are the same packs measured both ways: no fitting "
+        "time, no bytes. Materials factored in half/difference angles (hd) have no θi "
+        "axis and are unchanged.", "",
+        *edge_table(result), "",
         "## ΔE94 mean / max per band of max(θi, θo)", "",
         *band_table(result), "",
+        "Before (the linear edge rule on the same packs):", "",
+        *band_table(result, "errors_linear_edge"), "",
         "MERL round trip (s): " + ", ".join(f"{k} {v:.2f}"
                                            for k, v in result["merl_timings"].items()), ""]
     return lines

@@ -1,22 +1,18 @@
-/* Mirror: spectral_materials.core.brdf.axes.axis_lookup */
+/* Mirror: spectral_materials.core.brdf.axes.axis_lookup, spectral_materials.core.brdf.axes.horizon_scale */
 /* Linear-interpolation indices and weight on an axis's cell centres.
  * Mirrors axes.axis_lookup: value ≈ mix(table[i0], table[i1], w). Periodic axes
  * wrap between the last and first cells; other axes clamp the value into [lo, hi]
- * and extrapolate linearly beyond the end centres (edge_clamp holds them instead).
- * flags: bit 0 periodic, bit 1 square-root warp. */
+ * and, by edge rule, extrapolate linearly beyond the end centres (SM_EDGE_LINEAR),
+ * hold them (SM_EDGE_CLAMP), or hold the last centre of a horizon axis and let
+ * sm_horizon_scale take the lookup to 0 at hi (SM_EDGE_HORIZON).
+ * flags: bit 0 periodic, bit 1 square-root warp, bit 2 horizon axis (θi).
+ * SM_EDGE_<RULE> are defined per variant from axes.EDGE_RULES (gpu/shaders.py). */
 
-void sm_axis_lookup(float v, float lo, float span, int flags, int cells, bool edge_clamp,
-                    out int i0, out int i1, out float w)
+/* The axis value as x = u·cells − 0.5, u the warped unit coordinate. */
+float sm_axis_x(float v, float lo, float span, int flags, int cells)
 {
-  if (cells <= 1) {
-    i0 = 0;
-    i1 = 0;
-    w = 0.0;
-    return;
-  }
-  bool periodic = (flags & 1) != 0;
   float t;
-  if (periodic) {
+  if ((flags & 1) != 0) {
     float r = mod(v - lo, span);
     t = (r >= span ? 0.0 : r) / span;
   }
@@ -27,9 +23,21 @@ void sm_axis_lookup(float v, float lo, float span, int flags, int cells, bool ed
   if ((flags & 2) != 0) {
     t = sqrt(t);
   }
-  float x = t * float(cells) - 0.5;
+  return t * float(cells) - 0.5;
+}
+
+void sm_axis_lookup(float v, float lo, float span, int flags, int cells, int edge,
+                    out int i0, out int i1, out float w)
+{
+  if (cells <= 1) {
+    i0 = 0;
+    i1 = 0;
+    w = 0.0;
+    return;
+  }
+  float x = sm_axis_x(v, lo, span, flags, cells);
   float f = floor(x);
-  if (periodic) {
+  if ((flags & 1) != 0) {
     w = x - f;
     /* f ∈ [−1, cells − 1]; no % on negative ints, whose result GLSL leaves undefined
      * (llvmpipe computes it unsigned). */
@@ -40,8 +48,21 @@ void sm_axis_lookup(float v, float lo, float span, int flags, int cells, bool ed
     i0 = clamp(int(f), 0, cells - 2);
     i1 = i0 + 1;
     w = x - float(i0);
-    if (edge_clamp) {
+    if (edge == SM_EDGE_CLAMP) {
       w = clamp(w, 0.0, 1.0);
     }
+    else if (edge == SM_EDGE_HORIZON && (flags & 4) != 0) {
+      w = min(w, 1.0);
+    }
   }
+}
+
+/* 1 up to the last centre of a horizon axis, then linear down to 0 at hi. */
+float sm_horizon_scale(float v, float lo, float span, int flags, int cells)
+{
+  if ((flags & 4) == 0) {
+    return 1.0;
+  }
+  float x = sm_axis_x(v, lo, span, flags, cells);
+  return clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
 }

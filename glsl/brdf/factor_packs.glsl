@@ -12,6 +12,7 @@ struct SmLookup {
   ivec4 i0;
   ivec4 i1;
   vec4 w;
+  float scale; /* the horizon edge rule's fall to 0 at θi = 90° (1 elsewhere) */
 };
 
 SmLookup sm_lookups(vec4 coords)
@@ -20,14 +21,19 @@ SmLookup sm_lookups(vec4 coords)
   lookup.i0 = ivec4(0);
   lookup.i1 = ivec4(0);
   lookup.w = vec4(0.0);
+  lookup.scale = 1.0;
   for (int k = 0; k < SM_AXES; k++) {
     int i0, i1;
     float w;
     sm_axis_lookup(coords[k], sm.axis_lo[k], sm.axis_span[k], sm.axis_flags[k], sm.axis_cells[k],
-                   sm.misc.x != 0, i0, i1, w);
+                   sm.misc.x, i0, i1, w);
     lookup.i0[k] = i0;
     lookup.i1[k] = i1;
     lookup.w[k] = w;
+    if (sm.misc.x == SM_EDGE_HORIZON) {
+      lookup.scale *= sm_horizon_scale(coords[k], sm.axis_lo[k], sm.axis_span[k],
+                                       sm.axis_flags[k], sm.axis_cells[k]);
+    }
   }
   return lookup;
 }

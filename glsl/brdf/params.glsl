@@ -5,9 +5,9 @@
 struct SmParams {
   vec4 axis_lo;          /* per angular axis: lower end */
   vec4 axis_span;        /* per angular axis: hi − lo (the period of an azimuth) */
-  ivec4 axis_flags;      /* bit 0 periodic, bit 1 square-root warp */
+  ivec4 axis_flags;      /* bit 0 periodic, bit 1 square-root warp, bit 2 horizon (θi) */
   ivec4 axis_cells;      /* cells per axis (1 for unused axes) */
-  ivec4 misc;            /* x: edge clamp (else linear extrapolation), y: texel rows per axis */
+  ivec4 misc;            /* x: edge rule (SM_EDGE_*), y: texel rows per axis */
   vec4 display;          /* x: exposure, y: tone-map white, zw: target size (sphere) */
   vec4 view_origin;      /* eye position (w = 1) or direction toward the viewer (w = 0) */
   mat4 adaptation;       /* Bradford, scene white → D65 (upper 3 × 3) */

@@ -21,7 +21,7 @@ vec3 sm_reflected_xyz(SmLookup lookup, int light)
                 dot(texelFetch(light_tex, ivec2(x + 1, light), 0), product),
                 dot(texelFetch(light_tex, ivec2(x + 2, light), 0), product));
   }
-  return xyz;
+  return xyz * lookup.scale;
 #else
   float coefficients[SM_COEFFS];
   for (int j = 0; j < SM_COEFFS; j++) {
@@ -38,6 +38,6 @@ vec3 sm_reflected_xyz(SmLookup lookup, int light)
   for (int j = 0; j < SM_COEFFS; j++) {
     xyz += coefficients[j] * texelFetch(light_tex, ivec2(SM_LIGHT_HEADER + j, light), 0).xyz;
   }
-  return xyz;
+  return xyz * lookup.scale;
 #endif
 }

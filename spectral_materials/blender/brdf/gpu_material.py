@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.factored import FactoredBRDF
 from ...core.brdf.shading import light_texels
 from ...core.lights import SpectralLight
@@ -32,13 +33,14 @@ __all__ = ["DisplaySettings", "GPUMaterial", "MaterialUniforms", "PARAMS_BYTES",
 
 @dataclass
 class MaterialUniforms:
-    """Per-axis lookup uniforms (padded to 4 axes) of a factored model."""
+    """Per-axis lookup uniforms (padded to 4 axes) of a factored model; ``edge_rule`` is
+    the index in ``axes.EDGE_RULES``, the GLSL's SM_EDGE_* codes."""
 
     axis_lo: tuple
     axis_span: tuple
     axis_flags: tuple
     axis_cells: tuple
-    edge_clamp: int
+    edge_rule: int
     pack_rows: int
 
     @classmethod
@@ -48,10 +50,10 @@ class MaterialUniforms:
         return cls(
             axis_lo=tuple(float(a.lo) for a in axes) + (0.0,) * pad,
             axis_span=tuple(float(a.span) for a in axes) + (1.0,) * pad,
-            axis_flags=tuple(int(a.periodic) | (2 if a.warp == "sqrt" else 0) for a in axes)
-            + (0,) * pad,
+            axis_flags=tuple(int(a.periodic) | (2 if a.warp == "sqrt" else 0)
+                             | (4 if a.horizon else 0) for a in axes) + (0,) * pad,
             axis_cells=tuple(int(n) for n in model.grid.shape) + (1,) * pad,
-            edge_clamp=int(model.edge == "clamp"),
+            edge_rule=EDGE_RULES.index(model.edge),
             pack_rows=-(-model.terms // 4),
         )
 
@@ -131,7 +133,7 @@ def params_block(u: MaterialUniforms, display: DisplaySettings, view_origin=(0, 
     vp = np.eye(4) if view_projection is None else np.asarray(view_projection)
     return PARAMS.pack(
         axis_lo=u.axis_lo, axis_span=u.axis_span, axis_flags=u.axis_flags,
-        axis_cells=u.axis_cells, misc=(u.edge_clamp, u.pack_rows, 0, 0),
+        axis_cells=u.axis_cells, misc=(u.edge_rule, u.pack_rows, 0, 0),
         display=(display.exposure, display.tone_white, *target_size),
         view_origin=view_origin, adaptation=adapt, xyz_to_rgb=rgb,
         view_projection=std140_mat4(vp))

@@ -180,8 +180,8 @@ def _coordinates(g: Graph, parameterization: str, wi, wo, column: int) -> list:
     return [th, ph, td, pd] if parameterization == "hd" else [th, td, pd]
 
 
-def _axis_lookup(g: Graph, value, axis, cells: int, clamp_edge: bool, column: int, k: int):
-    """(i0, i1, w) sockets, as axes.axis_lookup (cells > 1)."""
+def _axis_x(g: Graph, value, axis, cells: int, column: int, k: int):
+    """x = u·cells − 0.5 (u the warped unit coordinate), as axes.axis_lookup computes it."""
     span = float(axis.span)
     if axis.periodic:
         t = g.math("DIVIDE", g.math("FLOORED_MODULO", g.math("SUBTRACT", value, axis.lo,
@@ -194,8 +194,12 @@ def _axis_lookup(g: Graph, value, axis, cells: int, clamp_edge: bool, column: in
     t = g.math("MINIMUM", g.math("MAXIMUM", t, 0.0, column=column + 3), 1.0, column=column + 3)
     if axis.warp == "sqrt":
         t = g.math("SQRT", t, column=column + 4)
-    x = g.math("MULTIPLY_ADD", t, float(cells), -0.5, column=column + 4,
-               label=f"axis {k}: x")
+    return g.math("MULTIPLY_ADD", t, float(cells), -0.5, column=column + 4,
+                  label=f"axis {k}: x")
+
+
+def _axis_lookup(g: Graph, x, axis, cells: int, edge: str, column: int, k: int):
+    """(i0, i1, w) sockets from :func:`_axis_x`, as axes.axis_lookup (cells > 1)."""
     f = g.math("FLOOR", x, column=column + 5)
     if axis.periodic:
         w = g.math("SUBTRACT", x, f, column=column + 6, label=f"axis {k}: w")
@@ -207,10 +211,19 @@ def _axis_lookup(g: Graph, value, axis, cells: int, clamp_edge: bool, column: in
                 column=column + 6, label=f"axis {k}: i0")
     i1 = g.math("ADD", i0, 1.0, column=column + 7, label=f"axis {k}: i1")
     w = g.math("SUBTRACT", x, i0, column=column + 7, label=f"axis {k}: w")
-    if clamp_edge:
+    if edge == "clamp":
         w = g.math("MINIMUM", g.math("MAXIMUM", w, 0.0, column=column + 8), 1.0,
                    column=column + 8)
+    elif edge == "horizon" and axis.horizon:
+        w = g.math("MINIMUM", w, 1.0, column=column + 8)
     return i0, i1, w
+
+
+def _horizon_scale(g: Graph, x, cells: int, column: int, k: int):
+    """axes.horizon_scale from :func:`_axis_x`: clamp(2·(cells − 0.5 − x), 0, 1)."""
+    ramp = g.math("MULTIPLY_ADD", x, -2.0, 2.0 * cells - 1.0, column=column + 8)
+    return g.math("MINIMUM", g.math("MAXIMUM", ramp, 0.0, column=column + 9), 1.0,
+                  column=column + 9, label=f"axis {k}: horizon scale")
 
 
 def _key_light_drivers(g: Graph, key: KeyLight, column: int):
@@ -301,17 +314,25 @@ def _empty_group(name: str):
     return group
 
 
-def _axis_lookups(g: Graph, model: FactoredBRDF, coords, base: int) -> list:
-    """(lower texel, upper texel, weight) of each angular axis (constants on 1-cell axes)."""
-    lookups = []
+def _axis_lookups(g: Graph, model: FactoredBRDF, coords, base: int) -> tuple[list, object]:
+    """(lower texel, upper texel, weight) of each angular axis (constants on 1-cell axes),
+    and the horizon edge rule's scale socket (None under other rules)."""
+    lookups, scale = [], None
     g.begin("Axis lookups")
     for k, (axis, cells) in enumerate(zip(model.grid.parameterization.axes, model.grid.shape)):
+        horizon = model.edge == "horizon" and axis.horizon
+        if cells == 1 and not horizon:
+            lookups.append((0.0, 0.0, 0.0))
+            continue
+        x = _axis_x(g, coords[k], axis, cells, base, k)
+        if horizon:
+            fall = _horizon_scale(g, x, cells, base, k)
+            scale = fall if scale is None else g.math("MULTIPLY", scale, fall, column=base + 9)
         if cells == 1:
             lookups.append((0.0, 0.0, 0.0))
         else:
-            lookups.append(_axis_lookup(g, coords[k], axis, cells, model.edge == "clamp",
-                                        base, k))
-    return lookups
+            lookups.append(_axis_lookup(g, x, axis, cells, model.edge, base, k))
+    return lookups, scale
 
 
 def _pack_rgb(g: Graph, image, lookups: list, pack: int, groups: int, weights: np.ndarray,
@@ -380,7 +401,7 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     g.begin(f"Coordinates ({parameterization})")
     coords = _coordinates(g, parameterization, wi, wo, base)
     base += 12
-    lookups = _axis_lookups(g, model, coords, base)
+    lookups, horizon = _axis_lookups(g, model, coords, base)
     base += 10
     groups = -(-model.terms // 4)
     weights = np.zeros((groups * 4, 3))
@@ -393,6 +414,8 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     g.begin("Key light radiance")
     scale = g.math("MULTIPLY", g.math("MULTIPLY", irradiance, lit, column=base + 9),
                    1.0 / math.pi, column=base + 10, label="E · lit / π")
+    if horizon is not None:
+        scale = g.math("MULTIPLY", scale, horizon, column=base + 10, label="× horizon")
     radiance = g.vmath("SCALE", total, scale=scale, column=base + 11, label="key light")
     g.begin("Other lights: Lambert + GGX fitted under the key light's spectrum")
     output = g.node("NodeGroupOutput", base + 12)

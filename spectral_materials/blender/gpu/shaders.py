@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.params import PARAMETERIZATIONS
 from ...core.lights import LIGHT_CODES
 from .outputs import SURFACE_REQUESTS, output_defines
@@ -42,6 +43,12 @@ def parameterization_defines(name: str) -> dict[str, str]:
     return defines
 
 
+def edge_defines() -> dict[str, str]:
+    """``SM_EDGE_<RULE>``: the code of each edge rule (its index in ``axes.EDGE_RULES``),
+    which the parameter block's ``misc.x`` carries (``gpu_material.MaterialUniforms``)."""
+    return {f"SM_EDGE_{rule.upper()}": str(code) for code, rule in enumerate(EDGE_RULES)}
+
+
 def light_type_bits(kinds) -> int:
     """``SM_LIGHT_TYPES``: bit ``LIGHT_CODES[kind]`` set for each light type drawn, so that
     glsl/common/lights.glsl compiles only the branches a scene needs."""
@@ -69,6 +76,7 @@ class ShaderKey:
     def defines(self) -> dict[str, str]:
         out = {
             **parameterization_defines(self.parameterization),
+            **edge_defines(),
             "SM_AXES": str(self.axes),
             "SM_PACKS": str(self.packs),
             "SM_COEFFS": str(self.coefficients),

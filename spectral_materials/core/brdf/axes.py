@@ -1,5 +1,16 @@
 """Grid axes of the parameterisations (:mod:`.params`): cell centres, warps, and the
-texture lookup :func:`axis_lookup` that the GLSL ``axis_lookup.glsl`` mirrors."""
+texture lookup :func:`axis_lookup` (with :func:`horizon_scale`) that the GLSL
+``axis_lookup.glsl`` and the EEVEE node group mirror.
+
+Edge rules (what a lookup does between the end centres and the ends of a non-periodic
+axis): ``"linear"`` extrapolates from the two nearest centres, ``"clamp"`` holds the end
+value, and ``"horizon"`` is ``"linear"`` except on a *horizon axis* (θi, whose upper end
+is the light's horizon): there a cosine-weighted table ``f·cosθi``, which is 0 at the
+horizon, falls linearly from the last centre to 0 at ``hi``. The fall is a scale of the
+whole lookup (:func:`horizon_scale`), since every stored form is linear in each axis's
+interpolated value; it is exact for the cosine's own zero, which linear extrapolation
+misses by up to half a cell's slope (issue 18: ΔE94 up to 26 on Oren–Nayar at θi > 89.9°).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 _WARPS = ("linear", "sqrt")
+#: Edge rules of :func:`axis_lookup` (see the module docstring).
+EDGE_RULES = ("linear", "clamp", "horizon")
 
 
 @dataclass(frozen=True)
@@ -25,6 +38,9 @@ class Axis:
     warp : str
         ``"linear"``: u = (v − lo)/(hi − lo); ``"sqrt"``: u = ((v − lo)/(hi − lo))^½
         (MERL-style θh spacing: cells are denser near ``lo``).
+    horizon : bool
+        ``hi`` is the light's horizon (θi axes): the ``"horizon"`` edge rule takes a
+        cosine-weighted table to 0 there.
     """
 
     name: str
@@ -32,12 +48,15 @@ class Axis:
     hi: float
     periodic: bool
     warp: str = "linear"
+    horizon: bool = False
 
     def __post_init__(self) -> None:
         if not self.hi > self.lo:
             raise ValueError(f"axis {self.name}: hi ({self.hi}) must exceed lo ({self.lo})")
         if self.warp not in _WARPS:
             raise ValueError(f"axis {self.name}: warp must be one of {_WARPS}, got {self.warp!r}")
+        if self.horizon and self.periodic:
+            raise ValueError(f"axis {self.name}: a periodic axis has no horizon")
 
     @property
     def span(self) -> float:
@@ -93,16 +112,18 @@ def axis_lookup(
     Non-periodic axes: values are clamped into [lo, hi] first; between ``lo``
     and the first centre, or the last centre and ``hi``, ``edge="linear"``
     extrapolates from the two nearest centres (w ∈ [−0.5, 1.5]) and
-    ``edge="clamp"`` holds the end value (w clipped to [0, 1]). With ``n == 1``,
-    i0 = i1 = 0 and w = 0. NaN values count as ``lo``, ±inf as ``hi``/``lo``.
+    ``edge="clamp"`` holds the end value (w clipped to [0, 1]); ``edge="horizon"``
+    holds the value beyond the last centre of a horizon axis (w ≤ 1), where
+    :func:`horizon_scale` takes it to 0, and is ``"linear"`` everywhere else. With
+    ``n == 1``, i0 = i1 = 0 and w = 0. NaN values count as ``lo``, ±inf as ``hi``/``lo``.
 
     Returns
     -------
     i0, i1 : int64 arrays shaped like ``values``
     w : float64 array shaped like ``values``
     """
-    if edge not in ("linear", "clamp"):
-        raise ValueError(f"edge must be 'linear' or 'clamp', got {edge!r}")
+    if edge not in EDGE_RULES:
+        raise ValueError(f"edge must be one of {EDGE_RULES}, got {edge!r}")
     n = int(n)
     if n < 1:
         raise ValueError(f"need at least one cell, got {n}")
@@ -123,4 +144,26 @@ def axis_lookup(
     w = x - i0
     if edge == "clamp":
         w = np.clip(w, 0.0, 1.0)
+    elif edge == "horizon" and axis.horizon:
+        w = np.minimum(w, 1.0)
     return i0, i0 + 1, w
+
+
+def horizon_scale(axis: Axis, n: int, values: np.ndarray) -> np.ndarray:
+    """The ``"horizon"`` edge rule's scale: 1 up to the last cell centre of a horizon
+    axis, then linear in the warped coordinate down to 0 at ``hi``; 1 on other axes.
+
+    Multiplying a lookup held at the last centre by this scale interpolates between the
+    last centre's value and 0 at the horizon. NaN counts as ``lo`` (scale 1), as in
+    :func:`axis_lookup`; +inf as ``hi`` (scale 0).
+    """
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"need at least one cell, got {n}")
+    v = np.nan_to_num(
+        np.asarray(values, dtype=np.float64), nan=axis.lo, posinf=axis.hi, neginf=axis.lo
+    )
+    if not axis.horizon:
+        return np.ones(v.shape, dtype=np.float64)
+    x = axis.to_unit(v) * n - 0.5
+    return np.clip(2.0 * (n - 0.5 - x), 0.0, 1.0)

@@ -239,6 +239,8 @@ def factor_brdf_series(
         wavelengths=table.wavelengths,
         basis=None if table.basis is None else table.basis.vectors.astype(np.float32),
         cosine_weighted=table.cosine_weighted, pack_size=pack_size,
+        # f·cosθi is 0 at θi = 90°; an uncosined table is not, and keeps extrapolating.
+        edge="horizon" if table.cosine_weighted else "linear",
     )
     common_report = {
         "method": method, "seed": seed, "grid": table.grid.describe(),

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..colour import pipeline as colour_pipeline, spectra
+from .axes import EDGE_RULES
 from .params import check_direction_pairs, get_parameterization
 from .tabulate import Grid, multilinear
 
@@ -84,6 +85,7 @@ class FactoredBRDF:
         grid = self.grid
         coords = grid.parameterization.forward(wi, wo)
         lookups = grid.lookup(coords, self.edge)
+        scale = grid.edge_scale(coords, self.edge)
         if self.form == "cp":
             prod = np.ones((wi.shape[0], self.terms))
             for (i0, i1, w), f in zip(lookups, self.factors):
@@ -92,6 +94,8 @@ class FactoredBRDF:
             out = _contract(prod, self.spectral)
         else:
             out = self._separable_coefficients(lookups)
+        if scale is not None:
+            out *= scale[:, None]
         lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         out[~lit] = 0.0
         return out
@@ -246,7 +250,7 @@ class FactoredBRDF:
     def _from_meta(cls, meta: dict, arrays: dict) -> FactoredBRDF:
         if meta["form"] not in ("cp", "separable"):
             raise ValueError(f"unknown form {meta['form']!r}")
-        if meta["edge"] not in ("linear", "clamp"):
+        if meta["edge"] not in EDGE_RULES:
             raise ValueError(f"unknown edge rule {meta['edge']!r}")
         if int(meta["pack_size"]) < 1:
             raise ValueError(f"pack_size must be ≥ 1, got {meta['pack_size']}")

@@ -63,7 +63,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .axes import Axis, axis_lookup
+from .axes import Axis, axis_lookup, horizon_scale
 from .directions import (  # HALF_VECTOR_EPS, POLE_RHO: read as params.* by callers
     HALF_PI,
     HALF_VECTOR_EPS,  # noqa: F401
@@ -93,6 +93,7 @@ __all__ = [
     "check_direction_pairs",
     "from_spherical",
     "axis_lookup",
+    "horizon_scale",
 ]
 
 #: Tolerance of the validity tests of ``inverse`` (horizon, axis ranges, unit discs).
@@ -106,7 +107,7 @@ GS_HORIZON_EPS = 1e-7
 
 
 def _theta_axis(name: str, warp: str = "linear") -> Axis:
-    return Axis(name, 0.0, HALF_PI, periodic=False, warp=warp)
+    return Axis(name, 0.0, HALF_PI, periodic=False, warp=warp, horizon=name == "theta_i")
 
 
 def _phi_axis(name: str) -> Axis:

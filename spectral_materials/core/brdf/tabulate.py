@@ -5,7 +5,9 @@ so no sample sits exactly on a pole, on the horizon or on a φ seam. Lookups
 interpolate linearly per axis (``axes.axis_lookup``): φ axes wrap, and
 beyond the first or last centre of a θ axis the table is extrapolated linearly
 (``edge="linear"``, the default, measured better than holding the end value
-for ``f·cosθi``, which goes to 0 at the horizon) or held (``edge="clamp"``).
+for ``f·cosθi``, which goes to 0 at the horizon) or held (``edge="clamp"``);
+``edge="horizon"`` takes a cosine-weighted table to 0 at θi = 90° (``axes``), the
+rule new factor packs use.
 
 The tabulated quantity is ``f·cosθi`` by default, as in Schwenk et al. (2010)
 §4: it is what a point light reflects, bounded at grazing angles, and it is
@@ -23,7 +25,7 @@ from ..colour import pipeline as colour_pipeline, spectra
 from ..colour.basis import LinearModelBasis
 from ..errors import InvalidBRDFData
 from ..progress import ProgressCallback, report
-from .params import Parameterization, axis_lookup
+from .params import Parameterization, axis_lookup, horizon_scale
 
 #: Refuse grids beyond this many samples (angular × spectral): a clear error
 #: instead of an out-of-memory crash.
@@ -72,6 +74,20 @@ class Grid:
         coords = np.asarray(coords, dtype=np.float64)
         return [axis_lookup(a, n, coords[:, k], edge=edge)
                 for k, (a, n) in enumerate(zip(self.parameterization.axes, self.shape))]
+
+    def edge_scale(self, coords: np.ndarray, edge: str = "linear") -> np.ndarray | None:
+        """The ``"horizon"`` rule's scale (N,) of a lookup at coords (N, d): the product of
+        :func:`.axes.horizon_scale` over the horizon axes; None under other rules or
+        without a horizon axis (nothing to scale)."""
+        axes = self.parameterization.axes
+        if edge != "horizon" or not any(a.horizon for a in axes):
+            return None
+        coords = np.asarray(coords, dtype=np.float64)
+        scale = np.ones(coords.shape[0])
+        for k, (a, n) in enumerate(zip(axes, self.shape)):
+            if a.horizon:
+                scale *= horizon_scale(a, n, coords[:, k])
+        return scale
 
     def describe(self) -> dict:
         return {
@@ -276,4 +292,6 @@ def multilinear(flat: np.ndarray, shape: tuple[int, ...], lookups: list[tuple]) 
 def interpolate(values: np.ndarray, grid: Grid, coords: np.ndarray,
                 edge: str = "linear") -> np.ndarray:
     """Multilinear lookup of a full table ``values (*grid.shape, S)`` at coords (N, d) → (N, S)."""
-    return multilinear(values.reshape(-1, values.shape[-1]), grid.shape, grid.lookup(coords, edge))
+    out = multilinear(values.reshape(-1, values.shape[-1]), grid.shape, grid.lookup(coords, edge))
+    scale = grid.edge_scale(coords, edge)
+    return out if scale is None else out * scale[:, None]

@@ -64,7 +64,7 @@ def test_not_cosine_weighted(factored, parameterization):
 @pytest.mark.parametrize("parameterization", ["io", "hd"])
 def test_edge_clamp(factored, parameterization):
     """edge == "clamp" holds the end cells instead of extrapolating; the shader follows."""
-    linear = factored(parameterization)
+    linear = replace(factored(parameterization), edge="linear")
     clamped = replace(linear, edge="clamp")
     change = 0.0
     for incidence, illuminant in CASES:
@@ -76,6 +76,29 @@ def test_edge_clamp(factored, parameterization):
         b = render_sphere(clamped, incidence, illuminant, SIZE)
         change = max(change, float(delta_e(a[..., :3], b[..., :3], illuminant).max()))
     assert change > 10 * MAX_DE94
+
+
+@pytest.mark.parametrize("parameterization", ["io", "io_iso", "ea"])
+def test_edge_horizon(factored, parameterization):
+    """New packs take f·cosθi to 0 at θi = 90° ("horizon"); the shader follows the mirror,
+    and the rule reaches it: lit by a light at 80°, the rim where θi passes the last cell
+    centre differs from the old linear rule."""
+    model = factored(parameterization)
+    assert model.edge == "horizon"
+    for incidence, illuminant in CASES:
+        de, _ = _max_de(model, incidence, illuminant)
+        assert de <= MAX_DE94, f"{incidence}°: {de:.4g}"
+    a = render_sphere(model, 80.0, "FL11", SIZE)
+    b = render_sphere(replace(model, edge="linear"), 80.0, "FL11", SIZE)
+    assert float(delta_e(a[..., :3], b[..., :3], "FL11").max()) > 10 * MAX_DE94
+
+
+def test_edge_horizon_without_a_theta_i_axis_is_linear(factored):
+    """hd has no θi axis: "horizon" draws exactly what "linear" draws."""
+    model = factored("hd")
+    a = render_sphere(model, 60.0, "D65", SIZE)
+    b = render_sphere(replace(model, edge="linear"), 60.0, "D65", SIZE)
+    np.testing.assert_array_equal(a, b)
 
 
 def test_packs_truncation(factored):

@@ -227,6 +227,7 @@ def test_operators_report_the_measured_error(clean_scene):
 
 @pytest.mark.parametrize("parameterization, resolution, incidence, illuminant", [
     ("io_iso", (16, 32, 16), 60.0, "FL2"),
+    ("io_iso", (16, 32, 16), 80.0, "FL11"),    # the terminator: the horizon edge rule
     ("hd", (12, 12, 12, 12), 0.0, "D65"),
     ("ea", (12, 12, 24, 24), 30.0, "A"),
 ])

@@ -75,7 +75,7 @@ _QUAD = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]], dtype=np.
 
 #: Uniforms of no material: the colour pipeline reads only display, adaptation, xyz_to_rgb.
 _DUMMY_AXES = MaterialUniforms(axis_lo=(0.0,) * 4, axis_span=(1.0,) * 4, axis_flags=(0,) * 4,
-                               axis_cells=(1,) * 4, edge_clamp=1, pack_rows=1)
+                               axis_cells=(1,) * 4, edge_rule=1, pack_rows=1)
 
 
 @pytest.fixture(scope="module")
