@@ -26,7 +26,7 @@ def synthetic_model(layout: str, packs: int) -> FactoredBRDF:
     basis = np.linalg.qr(rng.standard_normal((wl.size, BASIS_SIZE)))[0]
     return FactoredBRDF(
         parameterization=layout, resolution=LAYOUTS[layout], wavelengths=wl, basis=basis,
-        cosine_weighted=True, pack_size=PACK_SIZE,
+        cosine_weighted=True, pack_size=PACK_SIZE, edge="horizon",   # as new packs are
         factors=[rng.uniform(0.5, 1.5, (n, terms)).astype(np.float32)
                  for n in LAYOUTS[layout]],
         spectral=rng.uniform(0.5, 1.5, (BASIS_SIZE, terms)).astype(np.float32))

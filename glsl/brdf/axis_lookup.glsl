@@ -4,7 +4,7 @@
  * wrap between the last and first cells; other axes clamp the value into [lo, hi]
  * and, by edge rule, extrapolate linearly beyond the end centres (SM_EDGE_LINEAR),
  * hold them (SM_EDGE_CLAMP), or hold the last centre of a horizon axis and let
- * sm_horizon_scale take the lookup to 0 at hi (SM_EDGE_HORIZON).
+ * the returned scale take the lookup to 0 at hi (SM_EDGE_HORIZON, axes.horizon_scale).
  * flags: bit 0 periodic, bit 1 square-root warp, bit 2 horizon axis (θi).
  * SM_EDGE_<RULE> are defined per variant from axes.EDGE_RULES (gpu/shaders.py). */
 
@@ -26,16 +26,21 @@ float sm_axis_x(float v, float lo, float span, int flags, int cells)
   return t * float(cells) - 0.5;
 }
 
+/* scale: axes.horizon_scale's value, from the same x (1 unless the rule is horizon). */
 void sm_axis_lookup(float v, float lo, float span, int flags, int cells, int edge,
-                    out int i0, out int i1, out float w)
+                    out int i0, out int i1, out float w, out float scale)
 {
+  scale = 1.0;
+  float x = sm_axis_x(v, lo, span, flags, cells);
+  if (edge == SM_EDGE_HORIZON && (flags & 4) != 0) {
+    scale = clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
+  }
   if (cells <= 1) {
     i0 = 0;
     i1 = 0;
     w = 0.0;
     return;
   }
-  float x = sm_axis_x(v, lo, span, flags, cells);
   float f = floor(x);
   if ((flags & 1) != 0) {
     w = x - f;
@@ -55,14 +60,4 @@ void sm_axis_lookup(float v, float lo, float span, int flags, int cells, int edg
       w = min(w, 1.0);
     }
   }
-}
-
-/* 1 up to the last centre of a horizon axis, then linear down to 0 at hi. */
-float sm_horizon_scale(float v, float lo, float span, int flags, int cells)
-{
-  if ((flags & 4) == 0) {
-    return 1.0;
-  }
-  float x = sm_axis_x(v, lo, span, flags, cells);
-  return clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
 }

@@ -24,16 +24,13 @@ SmLookup sm_lookups(vec4 coords)
   lookup.scale = 1.0;
   for (int k = 0; k < SM_AXES; k++) {
     int i0, i1;
-    float w;
+    float w, scale;
     sm_axis_lookup(coords[k], sm.axis_lo[k], sm.axis_span[k], sm.axis_flags[k], sm.axis_cells[k],
-                   sm.misc.x, i0, i1, w);
+                   sm.misc.x, i0, i1, w, scale);
     lookup.i0[k] = i0;
     lookup.i1[k] = i1;
     lookup.w[k] = w;
-    if (sm.misc.x == SM_EDGE_HORIZON) {
-      lookup.scale *= sm_horizon_scale(coords[k], sm.axis_lo[k], sm.axis_span[k],
-                                       sm.axis_flags[k], sm.axis_cells[k]);
-    }
+    lookup.scale *= scale;
   }
   return lookup;
 }
