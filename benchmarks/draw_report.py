@@ -203,22 +203,27 @@ def _glsl_counts(results: dict) -> list[str]:
         f"{BASIS_SIZE}): `sm_pack_product` (glsl/brdf/factor_packs.glsl) fetches "
         f"{counts['sites']['per_axis']} unfiltered texels per axis (`texelFetch` at i0 and "
         "i1) and interpolates them itself, `product *= mix(a, b, w)`; "
-        "`sm_reflected_xyz` (glsl/brdf/spectral_basis.glsl) then fetches 3 texels (X, Y, Z "
-        "weights of the pack's 4 terms) and takes 3 dot4 (precontract), or fetches m "
-        "texels of the pack's spectral factor and accumulates m dot4 into the "
-        "coefficients (coefficients mode; then m more fetches and m vec3 FMA per light, "
-        "not per pack). Lane ops count an FMA as one: mix4 = 4 sub + 4 FMA, mul4 = 4, "
+        "`sm_reflected_xyz` (glsl/brdf/spectral_basis.glsl) then reads 3 vec4 of the "
+        "light's row (X, Y, Z weights of the pack's 4 terms) and takes 3 dot4 "
+        "(precontract), or fetches m texels of the pack's spectral factor and accumulates "
+        "m dot4 into the coefficients (coefficients mode; then m light-row reads and m "
+        "vec3 FMA per light, not per pack). Light rows are read from the uniform buffer "
+        "`sm_lights` where they fit 16 KiB, as in every configuration here, else fetched "
+        "from the light texture (glsl/common/light_rows.glsl). "
+        "Lane ops count an FMA as one: mix4 = 4 sub + 4 FMA, mul4 = 4, "
         "dot4 = 4. Address arithmetic (one integer multiply-add per axis for the row) is "
         "not counted.", "",
-        "| layout | d | mode | texture fetches | vec4 mix | vec4 mul | dot4 | accumulate | "
-        "lane ops | paper's fetches |", "|---|---|---|---|---|---|---|---|---|---|"]
+        "| layout | d | mode | texture fetches | light-row reads (uniform buffer) | vec4 mix | "
+        "vec4 mul | dot4 | accumulate | lane ops | paper's fetches |",
+        "|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in counts["rows"]:
         lines.append(f"| {c['layout']} | {c['axes']} | {c['mode']} | {c['fetches']} | "
+                     f"{c.get('light_reads', '–')} | "
                      f"{c['mix4']} | {c['mul4']} | {c['dot4']} | {c['adds']} | "
                      f"{c['lane_ops']} | {c['paper_fetches']} |")
     lines += [
         "",
-        "Per light, not per pack: the light's incidence (2–3 light texels, a normalise, the "
+        "Per light, not per pack: the light's incidence (2–3 light-row reads, a normalise, the "
         "falloff), wi into the shading frame (3 dot3), the parameterisation (io_iso: "
         "4 `atan`, 3 `mod`; hd: the half vector, 4 `atan`, 2 `mod`, 2 sin/cos pairs and "
         "the rotation) and d axis lookups (clamp or `mod`, a divide, `sqrt` on warped "
@@ -231,12 +236,13 @@ def _glsl_counts(results: dict) -> list[str]:
         "interpolates in ALU (d more fetches and d mix4 per pack) so that the GPU agrees "
         "with the Python lookup `FactoredBRDF.coefficients` to float32 rounding: a "
         "hardware linear filter rounds its weights to 8 bits (glsl/brdf/factor_packs.glsl). "
-        f"Precontraction takes the spectral side from m to 3 fetches per pack, saving "
-        f"m − 3 = {BASIS_SIZE - 3}, more than the d extra fetches of the exact "
+        f"Precontraction takes the spectral side from m fetches to 3 light-row reads per "
+        f"pack, saving m = {BASIS_SIZE} fetches, more than the d extra fetches of the exact "
         "interpolation: if the paper's spectral factor of a pack took m RGBA texels, as "
         f"ours does in coefficients mode, it read d + m = {3 + BASIS_SIZE} (io_iso) or "
-        f"{4 + BASIS_SIZE} (hd) texels per pack where ours, precontracted, reads "
-        f"{counts['rows'][0]['fetches']} or {counts['rows'][2]['fetches']}; "
+        f"{4 + BASIS_SIZE} (hd) texels per pack where ours, precontracted, fetches "
+        f"{counts['rows'][0]['fetches']} or {counts['rows'][2]['fetches']} (and reads 3 "
+        "vec4 of uniforms); "
         "its filtered fetches cost the texture unit more than a `texelFetch` does, and "
         "our d mix4 are ALU it did not spend.",
         "",

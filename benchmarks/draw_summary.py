@@ -23,7 +23,10 @@ def _between(text: str, start: str, end: str) -> str:
 
 
 def glsl_counts() -> dict:
-    """Texture fetches and ALU per pack and light, counted from glsl/ (see the Markdown).
+    """Texture fetches, light-row reads and ALU per pack and light, counted from glsl/
+    (see the Markdown). Light rows are read through ``sm_light_texel``
+    (glsl/common/light_rows.glsl): uniform-buffer reads when they fit 16 KiB, which every
+    configuration of this benchmark does, else texel fetches.
 
     The fetch sites are counted in the sources; the formulas say how often each runs.
     """
@@ -34,26 +37,30 @@ def glsl_counts() -> dict:
     coefficient_src = _between(basis_src, "#else", "#endif")
     sites = {"per_axis": packs_src.count("texelFetch("),
              "precontract": precontract_src.count("texelFetch("),
-             "coefficients": coefficient_src.count("texelFetch(")}
-    expected = {"per_axis": 2, "precontract": 3, "coefficients": 2}
+             "precontract_light_reads": precontract_src.count("sm_light_texel("),
+             "coefficients": coefficient_src.count("texelFetch("),
+             "coefficients_light_reads": coefficient_src.count("sm_light_texel(")}
+    expected = {"per_axis": 2, "precontract": 0, "precontract_light_reads": 3,
+                "coefficients": 1, "coefficients_light_reads": 1}
     if sites != expected:
-        log(f"warning: texelFetch sites in glsl/ are {sites}, the counts below assume "
+        log(f"warning: fetch sites in glsl/ are {sites}, the counts below assume "
             f"{expected}; recount them")
     m = BASIS_SIZE
     out = {"sites": sites, "rows": []}
     for layout, shape in LAYOUTS.items():
         d = len(shape)
         for precontract in (True, False):
-            spectral_fetches = 3 if precontract else m
+            dots = 3 if precontract else m
             # Scalar lane operations, an FMA counted as one: mix4 = 4 sub + 4 FMA,
             # mul4 = 4, dot4 = 1 mul + 3 FMA = 4; accumulation: vec3 add (3) or m adds.
-            lanes = 8 * d + 4 * d + 4 * spectral_fetches + (3 if precontract else m)
+            lanes = 8 * d + 4 * d + 4 * dots + (3 if precontract else m)
             out["rows"].append({
                 "layout": layout, "axes": d, "mode": MODES[precontract],
-                "fetches": 2 * d + spectral_fetches, "mix4": d, "mul4": d,
-                "dot4": spectral_fetches, "adds": "1 vec3" if precontract else f"{m} scalar",
+                "fetches": 2 * d + (0 if precontract else m),
+                "light_reads": 3 if precontract else 0, "mix4": d, "mul4": d,
+                "dot4": dots, "adds": "1 vec3" if precontract else f"{m} scalar",
                 "lane_ops": lanes,
-                "per_light_extra_fetches": 0 if precontract else m,
+                "per_light_extra_light_reads": 0 if precontract else m,
                 "paper_fetches": f"{d} filtered + spectral factor",
             })
     return out

@@ -17,9 +17,9 @@ vec3 sm_reflected_xyz(SmLookup lookup, int light)
   for (int p = 0; p < SM_PACKS; p++) {
     vec4 product = sm_pack_product(lookup, p);
     int x = SM_LIGHT_HEADER + 3 * p;
-    xyz += vec3(dot(texelFetch(light_tex, ivec2(x, light), 0), product),
-                dot(texelFetch(light_tex, ivec2(x + 1, light), 0), product),
-                dot(texelFetch(light_tex, ivec2(x + 2, light), 0), product));
+    xyz += vec3(dot(sm_light_texel(x, light), product),
+                dot(sm_light_texel(x + 1, light), product),
+                dot(sm_light_texel(x + 2, light), product));
   }
   return xyz * lookup.scale;
 #else
@@ -36,7 +36,7 @@ vec3 sm_reflected_xyz(SmLookup lookup, int light)
   }
   vec3 xyz = vec3(0.0);
   for (int j = 0; j < SM_COEFFS; j++) {
-    xyz += coefficients[j] * texelFetch(light_tex, ivec2(SM_LIGHT_HEADER + j, light), 0).xyz;
+    xyz += coefficients[j] * sm_light_texel(SM_LIGHT_HEADER + j, light).xyz;
   }
   return xyz * lookup.scale;
 #endif

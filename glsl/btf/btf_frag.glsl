@@ -80,7 +80,7 @@ void main()
                 w.z * sm_btf_luminance(views.z, texel, l);
       vec3 albedo_xyz = vec3(0.0);
       for (int j = 0; j < SM_BTF_COEFFS; j++) {
-        albedo_xyz += c[j] * texelFetch(light_tex, ivec2(SM_LIGHT_HEADER + j, light), 0).xyz;
+        albedo_xyz += c[j] * sm_light_texel(SM_LIGHT_HEADER + j, light).xyz;
       }
       xyz += (irradiance * y / SM_PI) * albedo_xyz;
     }

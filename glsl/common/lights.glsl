@@ -9,12 +9,13 @@
  *   point: E = strength / (4π r²)
  *   spot:  point × smoothstep((cos α − cos half) / blend width), α off the axis
  *   area:  E = strength · max(cos at the emitter, 0) / (π r²), a small Lambertian
- *          emitter (far-field approximation, see core/lights.py). */
+ *          emitter (far-field approximation, see core/lights.py). *
+ * The rows are read through sm_light_texel (light_rows.glsl). */
 
 float sm_light_incidence(int light, vec3 P, out vec3 wi)
 {
-  vec4 position_type = texelFetch(light_tex, ivec2(0, light), 0);
-  vec4 axis_strength = texelFetch(light_tex, ivec2(1, light), 0);
+  vec4 position_type = sm_light_texel(0, light);
+  vec4 axis_strength = sm_light_texel(1, light);
   int kind = int(position_type.w + 0.5);
 #if SM_LIGHT_TYPES & 1
   if (kind == SM_SUN) {
@@ -37,7 +38,7 @@ float sm_light_incidence(int light, vec3 P, out vec3 wi)
 #endif
 #if SM_LIGHT_TYPES & 4
   if (kind == SM_SPOT) {
-    vec4 spot = texelFetch(light_tex, ivec2(2, light), 0);
+    vec4 spot = sm_light_texel(2, light);
     float c = dot(-wi, axis_strength.xyz);
     float t = spot.y > 0.0 ? clamp((c - spot.x) / spot.y, 0.0, 1.0) : (c >= spot.x ? 1.0 : 0.0);
     irradiance *= t * t * (3.0 - 2.0 * t);

@@ -16,10 +16,10 @@ import numpy as np
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.factored import FactoredBRDF
-from ...core.brdf.shading import light_texels
+from ...core.brdf.shading import LIGHT_HEADER, light_texels
 from ...core.lights import SpectralLight
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
-from ..gpu.shaders import PARAMETERIZATION_CODES, ShaderKey
+from ..gpu.shaders import MAX_LIGHT_BUFFER_TEXELS, PARAMETERIZATION_CODES, ShaderKey
 from ..gpu.std140 import glsl_block
 from ..gpu.textures import array_texture, float_texture
 from . import storage
@@ -82,6 +82,12 @@ class GPUMaterial:
     def groups(self) -> int:
         return self.uniforms.pack_rows
 
+    def light_stride(self, lights: list[SpectralLight], precontract: bool) -> int:
+        """Texels per light row when the rows go in the uniform buffer ``sm_lights``
+        (glsl/common/light_rows.glsl); 0 when they exceed it and stay in a texture."""
+        width = LIGHT_HEADER + (3 * self.groups if precontract else self.model.spectral_size)
+        return width if len(lights) * width <= MAX_LIGHT_BUFFER_TEXELS else 0
+
     def key(self, lights: list[SpectralLight], *, packs: int | None = None,
             precontract: bool = True, output: str = "XYZ", sphere: bool = False) -> ShaderKey:
         """The variant drawing this material; ``packs`` limits the texel groups of 4 terms
@@ -93,24 +99,39 @@ class GPUMaterial:
                          coefficients=model.spectral_size, lights=len(lights),
                          light_types=frozenset(light.kind for light in lights),
                          cosine_weighted=bool(model.cosine_weighted), precontract=precontract,
-                         output=output, sphere=sphere)
+                         output=output, sphere=sphere,
+                         light_stride=self.light_stride(lights, precontract))
 
     def light_texture(self, lights: list[SpectralLight], precontract: bool, lights_key=None):
-        """The light texture for ``lights`` (cached under ``lights_key`` when given)."""
+        """The light rows for ``lights``, cached under ``lights_key`` when given: a uniform
+        buffer where :meth:`light_stride` says they fit (the variant of :meth:`key` reads
+        them so), else a texture. :meth:`bind` binds either."""
         cache_key = (lights_key, precontract)
         if lights_key is not None and cache_key in self._light_textures:
             return self._light_textures[cache_key]
-        texture = float_texture(light_texels(self.model, lights, precontract=precontract))
+        texels = light_texels(self.model, lights, precontract=precontract)
+        if self.light_stride(lights, precontract):
+            import gpu
+
+            texture = gpu.types.GPUUniformBuf(texels.astype(np.float32).tobytes())
+        else:
+            texture = float_texture(texels)
         if lights_key is not None:
             self._light_textures = {cache_key: texture}
         return texture
 
     def bind(self, shader, light_texture, params) -> None:
-        """Bind the shader, its two textures and the parameter block ``params``."""
+        """Bind the shader, the factor texture, the light rows (:meth:`light_texture`: a
+        uniform buffer or a texture) and the parameter block ``params``."""
+        import gpu
+
         shader.bind()
         shader.uniform_block("sm", params)
         shader.uniform_sampler("factor_tex", self.factor_texture)
-        shader.uniform_sampler("light_tex", light_texture)
+        if isinstance(light_texture, gpu.types.GPUUniformBuf):
+            shader.uniform_block("sm_lights", light_texture)
+        else:
+            shader.uniform_sampler("light_tex", light_texture)
 
     def params(self, display: DisplaySettings, *, view_origin=(0.0, 0.0, 1.0, 0.0),
                view_projection: np.ndarray | None = None, target_size=(0.0, 0.0)):

@@ -36,8 +36,9 @@ PARAMS_BYTES = PARAMS.size
 #: ``SM_BTF_KIND`` per reflectance-field kind (core/btf/render.py KINDS); the GLSL compares
 #: against the generated names ``SM_BTF_KIND_<KIND>``.
 KIND_CODES = {kind: code for code, kind in enumerate(KINDS)}
-FRAGMENT_LIBRARY = ("common/common.glsl", "common/lights.glsl", "common/frame.glsl",
-                    "common/colour_pipeline.glsl", "btf/btf_views.glsl", "btf/btf_frag.glsl")
+FRAGMENT_LIBRARY = ("common/common.glsl", "common/light_rows.glsl", "common/lights.glsl",
+                    "common/frame.glsl", "common/colour_pipeline.glsl", "btf/btf_views.glsl",
+                    "btf/btf_frag.glsl")
 
 _MATERIALS: dict[str, BTFMaterial] = {}
 #: BTF materials that could not be drawn: name → reason.
@@ -61,6 +62,7 @@ class BTFShaderKey:
                 "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
                 "SM_LIGHTS": str(self.lights),
                 "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
+                "SM_LIGHT_STRIDE": "0",         # light rows in light_tex (light_rows.glsl)
                 **output_defines(BTF_REQUESTS[self.output])}
 
     def validate(self) -> None:

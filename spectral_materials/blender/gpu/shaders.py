@@ -25,13 +25,19 @@ GLSL_DIR = Path(__file__).resolve().parents[3] / "glsl"
 PARAMETERIZATION_CODES = {name: code for code, name in enumerate(PARAMETERIZATIONS)}
 #: Fragment sources in the order they are concatenated (each uses the ones before).
 FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/axis_lookup.glsl",
-                    "brdf/factor_packs.glsl", "brdf/spectral_basis.glsl", "common/lights.glsl",
-                    "common/frame.glsl", "common/colour_pipeline.glsl")
+                    "brdf/factor_packs.glsl", "common/light_rows.glsl",
+                    "brdf/spectral_basis.glsl", "common/lights.glsl", "common/frame.glsl",
+                    "common/colour_pipeline.glsl")
 
 #: Lights one variant draws. The light loop may be unrolled into one copy of the pack
 #: loop per light, and the frame time grows linearly with lights (docs/bench_draw.md):
 #: a bound keeps compile time and frame time predictable.
 MAX_LIGHTS = 32
+
+#: Light rows go in a uniform buffer while they fit 16 KiB (1024 vec4), the size every
+#: OpenGL implementation must allow (GL_MAX_UNIFORM_BLOCK_SIZE ≥ 16384); larger ones
+#: (many lights × many packs) stay in the light texture.
+MAX_LIGHT_BUFFER_TEXELS = 1024
 
 _CACHE: dict = {}
 
@@ -72,6 +78,8 @@ class ShaderKey:
     precontract: bool = True
     output: str = "XYZ"         # a request of outputs.SURFACE_REQUESTS
     sphere: bool = False
+    #: Texels per light row in the uniform buffer ``sm_lights``; 0: rows in ``light_tex``.
+    light_stride: int = 0
 
     def defines(self) -> dict[str, str]:
         out = {
@@ -82,6 +90,7 @@ class ShaderKey:
             "SM_COEFFS": str(self.coefficients),
             "SM_LIGHTS": str(self.lights),
             "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
+            "SM_LIGHT_STRIDE": str(self.light_stride),
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             **output_defines(SURFACE_REQUESTS[self.output]),
@@ -102,6 +111,9 @@ class ShaderKey:
                              f"at most {MAX_LIGHTS}: hide or disable some lights")
         if self.output not in SURFACE_REQUESTS:
             raise ValueError(f"unknown output {self.output!r}; valid: {sorted(SURFACE_REQUESTS)}")
+        if self.light_stride and self.lights * self.light_stride > MAX_LIGHT_BUFFER_TEXELS:
+            raise ValueError(f"{self.lights} light rows of {self.light_stride} texels exceed the "
+                             f"uniform buffer's {MAX_LIGHT_BUFFER_TEXELS}")
 
 
 def glsl_source(name: str) -> str:
@@ -123,10 +135,18 @@ def create_info(key: ShaderKey, fragment: str | None = None):
     info = gpu.types.GPUShaderCreateInfo()
     for name, value in key.defines().items():
         info.define(name, value)
-    info.typedef_source(glsl_source("brdf/params.glsl"))
+    typedefs = glsl_source("brdf/params.glsl")
+    if key.light_stride:
+        # One struct per size: the array length is the variant's light rows.
+        typedefs += (f"\nstruct SmLights {{\n  vec4 texels[{key.lights * key.light_stride}];"
+                     "\n};\n")
+    info.typedef_source(typedefs)
     info.uniform_buf(0, "SmParams", "sm")
     info.sampler(0, "FLOAT_2D", "factor_tex")
-    info.sampler(1, "FLOAT_2D", "light_tex")
+    if key.light_stride:
+        info.uniform_buf(1, "SmLights", "sm_lights")
+    else:
+        info.sampler(1, "FLOAT_2D", "light_tex")
     if key.sphere:
         info.vertex_in(0, "VEC2", "corner")
         info.vertex_source(glsl_source("brdf/sphere_vert.glsl"))

@@ -138,3 +138,35 @@ def test_packs_truncation_with_pack_size_3():
     reference, mask = shading.sphere_xyz(model.truncated(2), 30.0, "A", SIZE)
     de = delta_e(reference[mask], image[mask][:, :3].astype(np.float64), "A")
     assert de.max() <= MAX_DE94
+
+
+@pytest.mark.parametrize("precontract", [True, False], ids=["precontract", "per_coefficient"])
+def test_light_rows_in_a_texture_draw_what_the_uniform_buffer_draws(factored, monkeypatch,
+                                                                     precontract):
+    """Light rows that fit 16 KiB go in the uniform buffer ``sm_lights``; larger ones stay
+    in the light texture. Both hold the same float32 rows: the images are identical."""
+    from spectral_materials.blender.brdf import gpu_material
+
+    model = factored("io_iso")
+    material = gpu_material.GPUMaterial(model)
+    lights = [shading.protocol_sun(30.0, "A", model.wavelengths)]
+    assert material.key(lights, precontract=precontract).light_stride > 0
+    buffered = render_sphere(model, 30.0, "A", SIZE, precontract=precontract)
+    monkeypatch.setattr(gpu_material, "MAX_LIGHT_BUFFER_TEXELS", 0)
+    assert material.key(lights, precontract=precontract).light_stride == 0
+    textured = render_sphere(model, 30.0, "A", SIZE, precontract=precontract)
+    np.testing.assert_array_equal(buffered, textured)
+    reference, mask = shading.sphere_xyz(model, 30.0, "A", SIZE)
+    assert delta_e(reference[mask], textured[mask][:, :3].astype(np.float64), "A").max() \
+        <= MAX_DE94
+
+
+def test_a_key_whose_light_rows_overflow_the_buffer_is_refused():
+    from spectral_materials.blender.gpu.shaders import MAX_LIGHT_BUFFER_TEXELS, ShaderKey
+
+    key = ShaderKey("io_iso", 3, 4, 8, 8, frozenset({"SUN"}), light_stride=15)
+    key.validate()
+    too_many = ShaderKey("io_iso", 3, 48, 8, 8, frozenset({"SUN"}),
+                         light_stride=MAX_LIGHT_BUFFER_TEXELS // 8 + 1)
+    with pytest.raises(ValueError, match="exceed the uniform buffer"):
+        too_many.validate()

@@ -113,7 +113,7 @@ def test_every_path_named_into_glsl_exists():
 
 def _families() -> dict:
     every_light = frozenset(lights.LIGHT_CODES)
-    surface = shaders.ShaderKey("hd", 4, 2, 8, 2, every_light)
+    surface = shaders.ShaderKey("hd", 4, 2, 8, 2, every_light, light_stride=9)
     return {
         "factor packs": (shaders.create_info, [surface, shaders.ShaderKey(
             "io_iso", 3, 1, 8, 1, frozenset({"SUN"}), sphere=True)], gpu_material.PARAMS),

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""The horizon edge rule's frame cost, ``benchmarks/edge_cost.py``.
+"""The draw-variants benchmark, ``benchmarks/draw_variants.py``.
 
-The same as ``python -m benchmarks.edge_cost`` from the repository root; arguments as
+The same as ``python -m benchmarks.draw_variants`` from the repository root; arguments as
 there (``--help``).
 """
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks.edge_cost import main
+from benchmarks.draw_variants import main
 
 if __name__ == "__main__":
     sys.exit(main())

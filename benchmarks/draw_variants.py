@@ -1,0 +1,162 @@
+"""Frame cost of two shader choices, each against the path it replaced, on the same packs.
+
+* **Edge rule** (issue 18): the "horizon" rule (f·cosθi falls to 0 at θi = 90°) against the
+  "linear" rule. The rule is a uniform (``misc.x``): both draws run the same compiled
+  variant, and the difference is the horizon scale computed per θi lookup.
+* **Light rows** (issue 19): the light rows (header, then the pre-contracted weights
+  K = Sᵀ Ĩ, 3 vec4 per pack) read from the uniform buffer ``sm_lights`` against the same
+  rows fetched from the light texture (glsl/common/light_rows.glsl). Two variants.
+
+The benchmark sphere of :mod:`benchmarks.draw` (about 1.0 M pixels at 1200²), synthetic
+io_iso packs in the paper's 90×180×90 layout, pre-contracted; timings interleaved
+B C B C … B (shared/PROTOCOL.md, "Time and memory"). Neither choice changes the factor
+texture; the light rows are the same bytes in either place.
+
+Writes ``docs/bench_draw_variants.md``/``.json`` (``--quick``: 400², 3 reps).
+
+Usage::
+
+    python -m benchmarks.draw_variants [--quick]
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from spectral_materials.blender.brdf.gpu_material import GPUMaterial
+from spectral_materials.blender.gpu import batches as mesh_batches, shaders
+from spectral_materials.blender.gpu.context import ensure_gpu
+from spectral_materials.blender.gpu.display import DisplaySettings
+from spectral_materials.blender.gpu.textures import float_texture
+from spectral_materials.core.brdf.shading import light_texels
+
+from . import harness
+from .draw import Bench, make_lights, sphere_arrays, view_projection
+from .draw_baseline import VIEW_ORIGIN
+from .synthetic import DISC_FRACTION, synthetic_model
+
+#: (comparison, packs, lights) measured.
+CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
+         ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4))
+LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer")}
+
+
+def _binder(bench: Bench, material: GPUMaterial, key, light_rows):
+    shader = shaders.get_shader(key)
+    params = material.params(DisplaySettings(), view_origin=VIEW_ORIGIN,
+                             view_projection=bench.vp)
+
+    def bind():
+        material.bind(shader, light_rows, params)
+        return shader
+    return bind
+
+
+def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
+    """(before, after) bind functions of one comparison."""
+    lights = make_lights(n_lights)
+    model = synthetic_model("io_iso", packs)
+    if comparison == "edge rule":
+        out = []
+        for rule in LABELS[comparison]:
+            material = GPUMaterial(replace(model, edge=rule))
+            key = material.key(lights, precontract=True, output="DISPLAY")
+            out.append(_binder(bench, material, key, material.light_texture(lights, True)))
+        return out
+    material = GPUMaterial(model)
+    key = material.key(lights, precontract=True, output="DISPLAY")
+    if not key.light_stride:
+        raise ValueError(f"{packs} packs × {n_lights} lights do not fit the uniform buffer")
+    texture = float_texture(light_texels(model, lights, precontract=True))
+    return (_binder(bench, material, replace(key, light_stride=0), texture),
+            _binder(bench, material, key, material.light_texture(lights, True)))
+
+
+def measure(bench: Bench, comparison: str, packs: int, n_lights: int) -> dict:
+    before, after = binders(bench, comparison, packs, n_lights)
+    bench.warm(before)
+    bench.warm(after)
+    timings = harness.interleave(lambda: bench.seconds_per_frame(after),
+                                 lambda: bench.seconds_per_frame(before), bench.reps)
+    ratios = timings.ratios()
+    names = LABELS[comparison]
+    return {"comparison": comparison, "layout": "io_iso", "packs": packs, "lights": n_lights,
+            "before": names[0], "after": names[1],
+            "before_ms": 1e3 * float(np.median(timings.baseline)),
+            "after_ms": 1e3 * float(np.median(timings.candidate)),
+            "after_over_before": float(np.median(ratios)), "paired": ratios}
+
+
+def run(args) -> dict:
+    started = time.perf_counter()
+    ensure_gpu()
+    import gpu
+
+    from spectral_materials.blender.gpu.offscreen import Target
+
+    arrays = sphere_arrays()
+    (batch,) = mesh_batches.MeshBatches.build(arrays).batches.values()
+    vp = view_projection(0.5 / DISC_FRACTION)
+    info = harness.gpu_machine()
+    rows = []
+    with Target(args.size, args.size) as target:
+        gpu.state.face_culling_set("BACK")
+        try:
+            bench = Bench(target, batch, vp, frames=3, reps=args.reps)
+            for comparison, packs, n_lights in CASES:
+                row = measure(bench, comparison, packs, n_lights)
+                rows.append(row)
+                harness.log(f"  {comparison}: {packs} packs, {n_lights} lights: "
+                            f"{row['before']} {row['before_ms']:.1f} ms, {row['after']} "
+                            f"{row['after_ms']:.1f} ms, ratio {row['after_over_before']:.3f}")
+        finally:
+            gpu.state.face_culling_set("NONE")
+    return {"date": harness.date_stamp(), "command": harness.command_line("draw_variants"),
+            "commit": harness.commit_of(), "machine": info, "quick": args.quick,
+            "size": args.size, "reps": args.reps, "rows": rows,
+            "seconds": time.perf_counter() - started}
+
+
+def markdown(results: dict) -> list[str]:
+    m = results["machine"]
+    lines = ["# Frame cost of two shader choices, against the paths they replaced", "",
+             f"Printed by `{results['command']}` on {results['date']} at commit "
+             f"{results['commit']}: {m['renderer']} ({m['backend']}), {m['cpu_count']} cores, "
+             f"{results['size']}² target, {results['reps']} interleaved repetitions of 3 "
+             f"frames{' (quick run: a smoke test)' if results['quick'] else ''}. No GPU was "
+             "at hand: these are llvmpipe's figures; on a GPU they are still open "
+             "(llvmpipe's texel fetches are not a texture unit's).", "",
+             "*Edge rule*: the horizon rule against linear extrapolation (issue 18), one "
+             "compiled variant. *Light rows*: the light rows from the uniform buffer "
+             "`sm_lights` against the light texture (issue 19). io_iso 90×180×90, "
+             "pre-contracted, synthetic packs.", "",
+             "| comparison | packs | lights | before | ms/frame | after | ms/frame | after / "
+             "before (median of paired ratios) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in results["rows"]:
+        lines.append(f"| {r['comparison']} | {r['packs']} | {r['lights']} | {r['before']} | "
+                     f"{r['before_ms']:.1f} | {r['after']} | {r['after_ms']:.1f} | "
+                     f"{r['after_over_before']:.3f} |")
+    return lines + [""]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = harness.parser(__doc__, quick_help="400² target, 3 reps (smoke test)",
+                            out_help="write bench_draw_variants.md/.json here, not docs/")
+    args = parser.parse_args(argv)
+    args.size = 400 if args.quick else 1200
+    args.reps = 3 if args.quick else 7
+    results = run(args)
+    out, stem = Path(args.out), harness.output_stem("draw_variants", args.quick)
+    harness.write_json(out / f"{stem}.json", results, indent=1, default=float)
+    lines = markdown(results)
+    harness.write_markdown(out / f"{stem}.md", lines)
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
