@@ -1,7 +1,10 @@
-/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.transfer.vertex_xyz */
+/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.transfer.vertex_xyz */
 /* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
  * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
  * spectral_materials/core/prt/albedo.py sample_layers) so that the Python mirror matches.
+ * The 3m values of a texel are packed four to a layer (albedo.layers_to_rgba): value
+ * q = 3j + c (coefficient j, channel c) is component q % 4 of layer q / 4, so a pixel
+ * filters SM_PRT_LAYERS = ⌈3m/4⌉ layers (4 fetches each) instead of m.
  * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT is one of
  * SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world), _UV and _PRIMITIVE (the triangle's
  * index) (blender/gpu/outputs.py). */
@@ -48,11 +51,17 @@ void main()
                  w.w * sm_albedo_texel(c0 + ivec2(1, 1), 0)).rgb;
   xyz = mat3(sm.rgb_to_xyz) * (e[0].rgb * albedo);
 #  else
-  for (int j = 0; j < SM_PRT_COEFFS; j++) {
-    vec3 r = (w.x * sm_albedo_texel(c0, j) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), j) +
-              w.z * sm_albedo_texel(c0 + ivec2(0, 1), j) +
-              w.w * sm_albedo_texel(c0 + ivec2(1, 1), j)).rgb;
-    xyz += e[j / 4][j % 4] * r;
+  for (int layer = 0; layer < SM_PRT_LAYERS; layer++) {
+    vec4 r = w.x * sm_albedo_texel(c0, layer) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), layer) +
+             w.z * sm_albedo_texel(c0 + ivec2(0, 1), layer) +
+             w.w * sm_albedo_texel(c0 + ivec2(1, 1), layer);
+    for (int k = 0; k < 4; k++) {
+      int q = 4 * layer + k;
+      if (q < 3 * SM_PRT_COEFFS) {
+        int j = q / 3;
+        xyz[q - 3 * j] += e[j / 4][j % 4] * r[k];
+      }
+    }
   }
 #  endif
   /* Ringing of a band-limited sharp light: no physical spectrum has a negative XYZ. */

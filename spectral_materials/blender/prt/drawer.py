@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.prt import transfer as core_prt
+from ...core.prt.albedo import layers_to_rgba
 from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.matrices import set_matrix
@@ -71,9 +72,16 @@ class PRTShaderKey:
     def vec4s(self) -> int:
         return -(-self.coefficients // 4)
 
+    @property
+    def albedo_layers(self) -> int:
+        """Layers of the albedo texture: one RGB layer for RGB PRT, else the 3m values
+        packed four to a texel (``albedo.layers_to_rgba``)."""
+        return 1 if self.rgb else -(-3 * self.coefficients // 4)
+
     def defines(self) -> dict[str, str]:
         return {"SM_PRT_TEXELS": str(self.texels), "SM_PRT_COEFFS": str(self.coefficients),
                 "SM_PRT_VEC4": str(self.vec4s), "SM_PRT_RGB": "1" if self.rgb else "0",
+                "SM_PRT_LAYERS": str(self.albedo_layers),
                 **output_defines(PRT_OUTPUTS[self.output])}
 
     def validate(self) -> None:
@@ -237,10 +245,11 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
     layers = prt.albedo_layers(obj, scene)
     albedo_key = (layers.key, rgb)
     if entry.get("albedo_key") != albedo_key:
-        data = layers.layers
         if rgb:
             source = prt.albedo_source(obj)
             data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
+        else:
+            data = layers_to_rgba(layers.layers)
         entry["albedo"] = array_texture(data)
         entry["albedo_size"] = (data.shape[2], data.shape[1])
         entry["albedo_key"] = albedo_key

@@ -346,6 +346,40 @@ def sample_layers(layers: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return out.reshape(uv.shape[:-1] + out.shape[1:])
 
 
+def layers_to_rgba(layers: np.ndarray) -> np.ndarray:
+    """The albedo layers packed four values to a texel: (⌈3m/4⌉, H, W, 4) float32.
+
+    A texel's 3m values R̃_j (m coefficients × X, Y, Z) are laid out in order,
+    ``q = 3j + c``, value q going to component ``q % 4`` of layer ``q // 4``; the last
+    layer is padded with zeros. The shader then filters ⌈3m/4⌉ layers instead of m RGB
+    layers each padded to RGBA (``glsl/prt/prt_frag.glsl``): 24 texel fetches per pixel
+    instead of 32 at m = 8 (issue 19). :func:`rgba_to_layers` undoes it.
+
+    Parameters
+    ----------
+    layers : array (m, H, W, 3)
+        e.g. :attr:`AlbedoLayers.layers`.
+    """
+    layers = np.asarray(layers)
+    if layers.ndim != 4 or layers.shape[3] != 3 or 0 in layers.shape:
+        raise ValueError(f"layers must be (m, H, W, 3), got {layers.shape}")
+    m, height, width, _ = layers.shape
+    count = -(-3 * m // 4)
+    flat = np.zeros((height, width, 4 * count), dtype=np.float32)
+    flat[..., : 3 * m] = layers.transpose(1, 2, 0, 3).reshape(height, width, 3 * m)
+    return np.ascontiguousarray(flat.reshape(height, width, count, 4).transpose(2, 0, 1, 3))
+
+
+def rgba_to_layers(packed: np.ndarray, m: int) -> np.ndarray:
+    """(m, H, W, 3) from :func:`layers_to_rgba`'s (⌈3m/4⌉, H, W, 4)."""
+    packed = np.asarray(packed)
+    count, height, width, depth = packed.shape
+    if depth != 4 or count != -(-3 * int(m) // 4):
+        raise ValueError(f"{packed.shape} is not {m} packed layers")
+    flat = packed.transpose(1, 2, 0, 3).reshape(height, width, 4 * count)[..., : 3 * m]
+    return flat.reshape(height, width, m, 3).transpose(2, 0, 1, 3)
+
+
 # -------------------------------------------------------------------------------- basis
 
 

@@ -240,3 +240,40 @@ def test_prt_basis_is_orthonormal_and_exact_for_its_inputs():
         albedo.prt_basis(np.where(np.arange(WL.size) == 3, np.nan, 0.5), ["D65"], WL, 4)
     with pytest.raises(ValueError, match="albedos must be"):
         albedo.prt_basis(np.ones((2, 7)), ["D65"], WL, 4)
+
+
+# ------------------------------------------------------------- packing for the GPU
+
+
+@pytest.mark.parametrize("m", [1, 2, 3, 4, 5, 8, 16])
+def test_layers_to_rgba_packs_four_values_to_a_texel_and_back(m):
+    rng = np.random.default_rng(m)
+    layers = rng.uniform(0.0, 2.0, (m, 3, 5, 3))
+    packed = albedo.layers_to_rgba(layers)
+    assert packed.shape == (-(-3 * m // 4), 3, 5, 4) and packed.dtype == np.float32
+    np.testing.assert_array_equal(albedo.rgba_to_layers(packed, m),
+                                  layers.astype(np.float32))
+    # value q = 3j + c sits in component q % 4 of layer q // 4; padding is zero
+    for j in range(m):
+        for c in range(3):
+            q = 3 * j + c
+            np.testing.assert_array_equal(packed[q // 4, :, :, q % 4],
+                                          layers[j, :, :, c].astype(np.float32))
+    tail = packed.transpose(1, 2, 0, 3).reshape(3, 5, -1)[..., 3 * m:]
+    assert not tail.any()
+
+
+def test_layers_to_rgba_hand_values():
+    """m = 2: six values R̃0 = (1, 2, 3), R̃1 = (4, 5, 6) → layers (1, 2, 3, 4), (5, 6, 0, 0)."""
+    layers = np.array([[[[1.0, 2.0, 3.0]]], [[[4.0, 5.0, 6.0]]]])
+    packed = albedo.layers_to_rgba(layers)
+    np.testing.assert_array_equal(packed[:, 0, 0], [[1, 2, 3, 4], [5, 6, 0, 0]])
+
+
+def test_layers_to_rgba_keeps_nan_and_refuses_bad_shapes():
+    layers = np.full((2, 1, 1, 3), np.nan)
+    assert np.isnan(albedo.layers_to_rgba(layers)[:, 0, 0].ravel()[:6]).all()
+    with pytest.raises(ValueError, match=r"\(m, H, W, 3\)"):
+        albedo.layers_to_rgba(np.zeros((2, 4, 4, 4)))
+    with pytest.raises(ValueError, match="packed layers"):
+        albedo.rgba_to_layers(np.zeros((3, 2, 2, 4)), 2)
