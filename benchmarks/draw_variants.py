@@ -6,6 +6,9 @@
 * **Light rows** (issue 19): the light rows (header, then the pre-contracted weights
   K = Sᵀ Ĩ, 3 vec4 per pack) read from the uniform buffer ``sm_lights`` against the same
   rows fetched from the light texture (glsl/common/light_rows.glsl). Two variants.
+* **Light loop** (issue 19): with several lights, packs outermost and the view's axes
+  (θo for io_iso) fetched once per pack for all lights, against the light-by-light loop
+  (the same variant with that branch compiled out, :func:`light_by_light_shader`).
 
 The benchmark sphere of :mod:`benchmarks.draw` (about 1.0 M pixels at 1200²), synthetic
 io_iso packs in the paper's 90×180×90 layout, pre-contracted; timings interleaved
@@ -41,12 +44,28 @@ from .synthetic import DISC_FRACTION, synthetic_model
 
 #: (comparison, packs, lights) measured.
 CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
-         ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4))
-LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer")}
+         ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4),
+         ("light loop", 4, 4), ("light loop", 22, 4), ("light loop", 4, 8))
+LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer"),
+          "light loop": ("light by light", "view axes once per pack")}
+#: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack.
+HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1"
 
 
-def _binder(bench: Bench, material: GPUMaterial, key, light_rows):
-    shader = shaders.get_shader(key)
+def light_by_light_shader(key: shaders.ShaderKey):
+    """The variant ``key`` with the per-pack light loop compiled out: every light through
+    its own pack loop, as before issue 19."""
+    import gpu
+
+    source = shaders.fragment_source()
+    if HOISTED_BRANCH not in source:
+        raise ValueError("glsl/brdf/surface_frag.glsl has no per-pack light loop any more")
+    patched = source.replace(HOISTED_BRANCH, "#  if 0")
+    return gpu.shader.create_from_info(shaders.create_info(key, fragment=patched))
+
+
+def _binder(bench: Bench, material: GPUMaterial, key, light_rows, shader=None):
+    shader = shader or shaders.get_shader(key)
     params = material.params(DisplaySettings(), view_origin=VIEW_ORIGIN,
                              view_projection=bench.vp)
 
@@ -69,6 +88,10 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
         return out
     material = GPUMaterial(model)
     key = material.key(lights, precontract=True, output="DISPLAY")
+    if comparison == "light loop":
+        rows = material.light_texture(lights, True)
+        return (_binder(bench, material, key, rows, light_by_light_shader(key)),
+                _binder(bench, material, key, rows))
     if not key.light_stride:
         raise ValueError(f"{packs} packs × {n_lights} lights do not fit the uniform buffer")
     texture = float_texture(light_texels(model, lights, precontract=True))
@@ -132,7 +155,9 @@ def markdown(results: dict) -> list[str]:
              "(llvmpipe's texel fetches are not a texture unit's).", "",
              "*Edge rule*: the horizon rule against linear extrapolation (issue 18), one "
              "compiled variant. *Light rows*: the light rows from the uniform buffer "
-             "`sm_lights` against the light texture (issue 19). io_iso 90×180×90, "
+             "`sm_lights` against the light texture (issue 19). *Light loop*: with several "
+             "lights, packs outermost and θo's factors fetched once per pack for all lights, "
+             "against the light-by-light loop (issue 19). io_iso 90×180×90, "
              "pre-contracted, synthetic packs.", "",
              "| comparison | packs | lights | before | ms/frame | after | ms/frame | after / "
              "before (median of paired ratios) |",

@@ -47,3 +47,19 @@ vec4 sm_pack_product(SmLookup lookup, int pack)
   }
   return product;
 }
+
+/* The same product over the axes in the bit mask `axes` only: with several lights, the
+ * view's axes (SM_VIEW_AXES) once per pack, each light's own axes per light. */
+vec4 sm_pack_product_axes(SmLookup lookup, int pack, int axes)
+{
+  vec4 product = vec4(1.0);
+  for (int k = 0; k < SM_AXES; k++) {
+    if ((axes & (1 << k)) != 0) {
+      int row = k * sm.misc.y + pack;
+      vec4 a = texelFetch(factor_tex, ivec2(lookup.i0[k], row), 0);
+      vec4 b = texelFetch(factor_tex, ivec2(lookup.i1[k], row), 0);
+      product *= mix(a, b, lookup.w[k]);
+    }
+  }
+  return product;
+}

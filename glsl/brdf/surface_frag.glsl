@@ -50,18 +50,56 @@ void main()
   return;
 #  endif
   vec3 xyz = vec3(0.0);
+#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1
+  /* Packs outermost, so that the axes depending on the view alone (SM_VIEW_AXES: θo,
+   * and φo where the parameterisation has it) are fetched and interpolated once per
+   * pack for all lights, and only each light's own axes per light (issue 19). The sum
+   * is the light-by-light one below, reordered. */
+  SmLookup lookups[SM_LIGHTS];
+  float weight[SM_LIGHTS];
+  for (int light = 0; light < SM_LIGHTS; light++) {
+    vec3 wi_world;
+    float irradiance = sm_light_incidence(light, P, wi_world);
+    vec3 wi = sm_to_local(frame, wi_world);
+    weight[light] = 0.0;
+    lookups[light] = sm_lookups(vec4(0.0));
+    if (irradiance > 0.0 && wi.z > 0.0 && wo.z > 0.0) {
+      lookups[light] = sm_lookups(sm_coordinates(wi, wo));
+      weight[light] = irradiance * lookups[light].scale;
+#    if !SM_COSINE_WEIGHTED
+      weight[light] *= wi.z;
+#    endif
+    }
+  }
+  /* Any incident direction gives the view's axes the same coordinates. */
+  SmLookup view = sm_lookups(sm_coordinates(vec3(0.0, 0.0, 1.0), wo));
+  int own_axes = ((1 << SM_AXES) - 1) & ~SM_VIEW_AXES;
+  for (int p = 0; p < SM_PACKS; p++) {
+    vec4 view_product = sm_pack_product_axes(view, p, SM_VIEW_AXES);
+    for (int light = 0; light < SM_LIGHTS; light++) {
+      if (weight[light] != 0.0) {
+        vec4 product = view_product * sm_pack_product_axes(lookups[light], p, own_axes);
+        int x = SM_LIGHT_HEADER + 3 * p;
+        xyz += weight[light] * vec3(dot(sm_light_texel(x, light), product),
+                                    dot(sm_light_texel(x + 1, light), product),
+                                    dot(sm_light_texel(x + 2, light), product));
+      }
+    }
+  }
+#  else
   for (int light = 0; light < SM_LIGHTS; light++) {
     vec3 wi_world;
     float irradiance = sm_light_incidence(light, P, wi_world);
     vec3 wi = sm_to_local(frame, wi_world);
     if (irradiance > 0.0 && wi.z > 0.0 && wo.z > 0.0) {
       vec3 reflected = sm_reflected_xyz(sm_lookups(sm_coordinates(wi, wo)), light);
-#  if !SM_COSINE_WEIGHTED
+#    if !SM_COSINE_WEIGHTED
       reflected *= wi.z;
-#  endif
+#    endif
       xyz += irradiance * reflected;
     }
   }
+#  endif
 #  if SM_OUTPUT == SM_OUTPUT_XYZ
   frag_colour = vec4(xyz, 1.0);
 #  else

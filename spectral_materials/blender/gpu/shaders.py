@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...core.brdf.axes import EDGE_RULES
-from ...core.brdf.params import PARAMETERIZATIONS
+from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
 from ...core.lights import LIGHT_CODES
 from .outputs import SURFACE_REQUESTS, output_defines
 
@@ -55,6 +55,17 @@ def edge_defines() -> dict[str, str]:
     return {f"SM_EDGE_{rule.upper()}": str(code) for code, rule in enumerate(EDGE_RULES)}
 
 
+def view_axes_mask(name: str) -> int:
+    """``SM_VIEW_AXES``: bit k set where axis k of the parameterisation depends on the
+    view alone (``Parameterization.view_axes``)."""
+    if name not in PARAMETERIZATION_CODES:
+        return 0            # validate() names the unknown parameterisation
+    mask = 0
+    for k in get_parameterization(name).view_axes:
+        mask |= 1 << k
+    return mask
+
+
 def light_type_bits(kinds) -> int:
     """``SM_LIGHT_TYPES``: bit ``LIGHT_CODES[kind]`` set for each light type drawn, so that
     glsl/common/lights.glsl compiles only the branches a scene needs."""
@@ -91,6 +102,7 @@ class ShaderKey:
             "SM_LIGHTS": str(self.lights),
             "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
             "SM_LIGHT_STRIDE": str(self.light_stride),
+            "SM_VIEW_AXES": str(view_axes_mask(self.parameterization)),
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             **output_defines(SURFACE_REQUESTS[self.output]),

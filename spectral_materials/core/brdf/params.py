@@ -133,6 +133,9 @@ class Parameterization:
     summary: str = ""
     #: ``inverse`` accepts directions with z >= -horizon_tolerance as above the horizon.
     horizon_tolerance: float = VALID_EPS
+    #: Axes whose coordinate depends on ``wo`` alone: a shader drawing several lights
+    #: fetches their factors once per pack, not once per light (glsl/brdf/surface_frag.glsl).
+    view_axes: tuple[int, ...] = ()
 
     @property
     def ndim(self) -> int:
@@ -214,6 +217,7 @@ class IOParameterization(Parameterization):
     """Incoming/outgoing spherical angles (θi, φi, θo, φo)."""
 
     name = "io"
+    view_axes = (2, 3)
     label = "Input/output angles"
     summary = "(θi, φi, θo, φo); (θi, φo−φi, θo) when isotropic"
     axes = (_theta_axis("theta_i"), _phi_axis("phi_i"), _theta_axis("theta_o"), _phi_axis("phi_o"))
@@ -236,6 +240,7 @@ class IOIsoParameterization(Parameterization):
     Schwenk et al. 2010. The inverse puts wi at φi = 0. Split: θi against (Δφ, θo)."""
 
     name = "io_iso"
+    view_axes = (2,)
     axes = (_theta_axis("theta_i"), _phi_axis("delta_phi"), _theta_axis("theta_o"))
     default_resolution = (90, 180, 90)
     split = ((0,), (1, 2))
@@ -257,6 +262,7 @@ class EAParameterization(Parameterization):
     against azimuths."""
 
     name = "ea"
+    view_axes = (1, 3)
     label = "Elevation/azimuth"
     summary = "Elevation/azimuth of both directions"
     axes = (_theta_axis("theta_i"), _theta_axis("theta_o"), _phi_axis("phi_i"), _phi_axis("phi_o"))

@@ -90,10 +90,23 @@ def test_mesh_without_uvs_uses_the_generated_tangent_field(clean_scene, anisotro
     assert _gpu_against_mirror(clean_scene, material).max() <= 0.1
 
 
-def test_every_light_type_in_a_scene(clean_scene, glossy_model):
+#: Each parameterisation's small grid for the four-light scene: io, io_iso and ea draw
+#: their view axes once per pack for all lights (SM_VIEW_AXES), hd light by light.
+FOUR_LIGHT_GRIDS = {"io": (12, 24, 12, 24), "io_iso": (12, 24, 12), "ea": (12, 12, 24, 24),
+                    "hd": (10, 12, 10, 12)}
+
+
+@pytest.mark.parametrize("parameterization", list(FOUR_LIGHT_GRIDS))
+def test_every_light_type_in_a_scene(clean_scene, parameterization):
     bpy.data.objects.remove(bpy.data.objects["Cube"])
     bpy.data.objects.remove(bpy.data.objects["Light"])
-    _, material = _sphere_with(glossy_model)
+    model = factor.factor_brdf(
+        models.make_model("ashikhmin_shirley", diffuse=(WL, spectra.colorchecker(12)),
+                          nu=32, nv=32),
+        parameterization=parameterization, isotropic=parameterization == "io_iso",
+        resolution=FOUR_LIGHT_GRIDS[parameterization], packs=2, spectral_basis=8)
+    assert model.parameterization == parameterization
+    _, material = _sphere_with(model)
     for kind, location, energy in (("SUN", (2, -2, 3), 2.0), ("POINT", (3, -4, 2), 400.0),
                                    ("SPOT", (6, -6, 4), 2000.0), ("AREA", (-3, -5, 3), 300.0)):
         data = bpy.data.lights.new(kind, kind)

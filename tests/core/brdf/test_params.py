@@ -482,3 +482,23 @@ def test_module_constants():
     assert params.HALF_VECTOR_EPS > 0 and params.VALID_EPS > 0
     assert PARAMETERIZATIONS["gs"].horizon_tolerance == params.GS_HORIZON_EPS
     assert PARAMETERIZATIONS["hd"].horizon_tolerance == params.VALID_EPS
+
+
+@pytest.mark.parametrize("name", sorted(PARAMETERIZATIONS))
+def test_view_axes_depend_on_the_view_alone(name):
+    """``view_axes`` are exactly the coordinates that do not move when only wi moves."""
+    rng = np.random.default_rng(31)
+    param = get_parameterization(name)
+    wo = rng.normal(size=(400, 3))
+    wo[:, 2] = np.abs(wo[:, 2]) + 0.05
+    wo /= np.linalg.norm(wo, axis=1, keepdims=True)
+
+    def upper(n):
+        v = rng.normal(size=(n, 3))
+        v[:, 2] = np.abs(v[:, 2]) + 0.05
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+    a = param.forward(upper(400), wo)
+    b = param.forward(upper(400), wo)
+    moved = [k for k in range(param.ndim) if not np.array_equal(a[:, k], b[:, k])]
+    assert sorted(set(range(param.ndim)) - set(moved)) == list(param.view_axes)
