@@ -22,6 +22,7 @@ Usage::
     python -m benchmarks.draw              # the default grid (~6 min on 2 cores, llvmpipe)
     python -m benchmarks.draw --quick      # 400 × 400 target, small grid (< 1 min)
     python -m benchmarks.draw --device-out out/gpu   # on a machine with a GPU
+    python -m benchmarks.draw --counts     # the fetch and ALU counts only
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from spectral_materials.core.lights import SpectralLight
 
 from . import harness
 from .draw_baseline import VIEW_ORIGIN, Baseline
-from .draw_report import main_table, ordered, write_markdown
+from .draw_report import glsl_counts_markdown, main_table, ordered, write_markdown
 from .draw_summary import MODES, PAPER_FPS, SERIES, glsl_counts, summaries
 from .harness import log
 from .scenes import factory_scene
@@ -297,6 +298,9 @@ def parse_args(argv: list[str] | None = None):
                         help="target side in pixels (default 1200: the sphere covers ~1.0 M "
                              "pixels; 400 with --quick)")
     parser.add_argument("--frames", type=int, default=3, help="frames per timing")
+    parser.add_argument("--counts", action="store_true",
+                        help="print the fetches and ALU per pack counted from glsl/ and stop "
+                             "(no drawing)")
     parser.add_argument("--reps", type=int, default=None,
                         help="repetitions per configuration (median; default 5, 3 with "
                              "--quick)")
@@ -376,6 +380,9 @@ def run(args) -> dict:
 
 def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
+    if args.counts:
+        print("\n".join(glsl_counts_markdown({"counts": glsl_counts()})))
+        return
     results = run(args)
     out, stem = Path(args.out), harness.output_stem("draw", args.quick)
     harness.write_outputs(out, stem, results, write_markdown)

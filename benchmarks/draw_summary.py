@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from spectral_materials.blender.gpu import shaders
+from spectral_materials.core.brdf.params import get_parameterization
 
 from .harness import log
 from .synthetic import BASIS_SIZE, LAYOUTS
@@ -49,6 +50,9 @@ def glsl_counts() -> dict:
     out = {"sites": sites, "rows": []}
     for layout, shape in LAYOUTS.items():
         d = len(shape)
+        # With several lights (precontract), the view's axes are fetched once per pack
+        # for all of them (glsl/brdf/surface_frag.glsl, SM_VIEW_AXES).
+        view = len(get_parameterization(layout).view_axes)
         for precontract in (True, False):
             dots = 3 if precontract else m
             # Scalar lane operations, an FMA counted as one: mix4 = 4 sub + 4 FMA,
@@ -61,6 +65,7 @@ def glsl_counts() -> dict:
                 "dot4": dots, "adds": "1 vec3" if precontract else f"{m} scalar",
                 "lane_ops": lanes,
                 "per_light_extra_light_reads": 0 if precontract else m,
+                "fetches_per_further_light": 2 * (d - view) if precontract else 2 * d + m,
                 "paper_fetches": f"{d} filtered + spectral factor",
             })
     return out
