@@ -200,7 +200,7 @@ def glsl_counts_markdown(results: dict) -> list[str]:
     counts = results["counts"]
     lines = [
         "Counted from the GLSL (per pack and per light; d angular axes, m = "
-        f"{BASIS_SIZE}): `sm_pack_product` (glsl/brdf/factor_packs.glsl) fetches "
+        f"{BASIS_SIZE}): `sm_pack_product_axes` (glsl/brdf/factor_packs.glsl) fetches "
         f"{counts['sites']['per_axis']} unfiltered texels per axis (`texelFetch` at i0 and "
         "i1) and interpolates them itself, `product *= mix(a, b, w)`; "
         "`sm_reflected_xyz` (glsl/brdf/spectral_basis.glsl) then reads 3 vec4 of the "

@@ -31,8 +31,8 @@ def glsl_counts() -> dict:
 
     The fetch sites are counted in the sources; the formulas say how often each runs.
     """
-    packs_src = _between(shaders.glsl_source("brdf/factor_packs.glsl"), "vec4 sm_pack_product",
-                         "\n}")
+    packs_src = _between(shaders.glsl_source("brdf/factor_packs.glsl"),
+                         "vec4 sm_pack_product_axes", "\n}")
     basis_src = shaders.glsl_source("brdf/spectral_basis.glsl")
     precontract_src = _between(basis_src, "#if SM_PRECONTRACT", "#else")
     coefficient_src = _between(basis_src, "#else", "#endif")

@@ -35,21 +35,9 @@ SmLookup sm_lookups(vec4 coords)
   return lookup;
 }
 
-/* The 4 terms of pack `pack`: Π_k mix(A_k[i0], A_k[i1], w_k). */
-vec4 sm_pack_product(SmLookup lookup, int pack)
-{
-  vec4 product = vec4(1.0);
-  for (int k = 0; k < SM_AXES; k++) {
-    int row = k * sm.misc.y + pack;
-    vec4 a = texelFetch(factor_tex, ivec2(lookup.i0[k], row), 0);
-    vec4 b = texelFetch(factor_tex, ivec2(lookup.i1[k], row), 0);
-    product *= mix(a, b, lookup.w[k]);
-  }
-  return product;
-}
-
-/* The same product over the axes in the bit mask `axes` only: with several lights, the
- * view's axes (SM_VIEW_AXES) once per pack, each light's own axes per light. */
+/* The 4 terms of pack `pack` over the axes in the bit mask `axes`:
+ * Π_{k in axes} mix(A_k[i0], A_k[i1], w_k). With several lights, the view's axes
+ * (SM_VIEW_AXES) once per pack and each light's own axes per light (surface_frag.glsl). */
 vec4 sm_pack_product_axes(SmLookup lookup, int pack, int axes)
 {
   vec4 product = vec4(1.0);
@@ -62,4 +50,10 @@ vec4 sm_pack_product_axes(SmLookup lookup, int pack, int axes)
     }
   }
   return product;
+}
+
+/* The 4 terms of pack `pack` over every axis. */
+vec4 sm_pack_product(SmLookup lookup, int pack)
+{
+  return sm_pack_product_axes(lookup, pack, (1 << SM_AXES) - 1);
 }
