@@ -354,7 +354,8 @@ def _reading_and_sweeps(results: dict, t: dict) -> list[str]:
         "basis size m (the spectra of the albedo × CMF products and of the illuminant; "
         "it costs frame time and texture bytes). Frame time depends on bands "
         "(vertex stage: ⌈bands²/4⌉ transfer texels × ⌈m/4⌉ environment texels per "
-        "vertex) and on m (fragment stage: 4 m albedo texel fetches per pixel, against 4 "
+        "vertex) and on m (fragment stage: 4⌈3m/4⌉ albedo texel fetches per pixel, the "
+        "albedo packed four values to a texel (docs/bench_prt_packing.md), against 4 "
         "for RGB PRT).",
         *rgb_note(results),
         "- Compare the × RGB columns across machines, not the ms.", "",

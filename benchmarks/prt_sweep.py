@@ -62,7 +62,7 @@ def texture_bytes(obj, scene, transfer: np.ndarray) -> dict:
     return {"transfer_attributes": int(transfer.size * 4),
             "transfer_texture": int(prt_gpu.transfer_texels(transfer).nbytes),
             "environment_texture": int(prt_gpu.environment_texels(np.zeros((k, m))).nbytes),
-            "albedo_texture": int(m * h * w * 16),
+            "albedo_texture": int(-(-3 * m // 4) * h * w * 16),   # albedo.layers_to_rgba
             "rgb_environment_texture": int(prt_gpu.environment_texels(np.zeros((k, 3))).nbytes),
             "rgb_albedo_texture": int(h * w * 16)}
 

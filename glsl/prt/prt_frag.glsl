@@ -16,6 +16,14 @@ vec4 sm_albedo_texel(ivec2 texel, int layer)
   return texelFetch(albedo_tex, ivec3(wrapped, layer), 0);
 }
 
+/* One layer filtered bilinearly by hand: weights w of the texels c0, c0 + x, c0 + y, c0 + xy. */
+vec4 sm_albedo_filtered(ivec2 c0, vec4 w, int layer)
+{
+  return w.x * sm_albedo_texel(c0, layer) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), layer) +
+         w.z * sm_albedo_texel(c0 + ivec2(0, 1), layer) +
+         w.w * sm_albedo_texel(c0 + ivec2(1, 1), layer);
+}
+
 void main()
 {
 #if SM_OUTPUT == SM_OUTPUT_POSITION
@@ -46,22 +54,19 @@ void main()
 #  endif
   vec3 xyz = vec3(0.0);
 #  if SM_PRT_RGB
-  vec3 albedo = (w.x * sm_albedo_texel(c0, 0) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), 0) +
-                 w.z * sm_albedo_texel(c0 + ivec2(0, 1), 0) +
-                 w.w * sm_albedo_texel(c0 + ivec2(1, 1), 0)).rgb;
+  vec3 albedo = sm_albedo_filtered(c0, w, 0).rgb;
   xyz = mat3(sm.rgb_to_xyz) * (e[0].rgb * albedo);
 #  else
-  for (int layer = 0; layer < SM_PRT_LAYERS; layer++) {
-    vec4 r = w.x * sm_albedo_texel(c0, layer) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), layer) +
-             w.z * sm_albedo_texel(c0 + ivec2(0, 1), layer) +
-             w.w * sm_albedo_texel(c0 + ivec2(1, 1), layer);
-    for (int k = 0; k < 4; k++) {
-      int q = 4 * layer + k;
-      if (q < 3 * SM_PRT_COEFFS) {
-        int j = q / 3;
-        xyz[q - 3 * j] += e[j / 4][j % 4] * r[k];
-      }
-    }
+  /* Coefficients 4g … 4g+3 fill layers 3g, 3g+1, 3g+2 exactly: (X0 Y0 Z0 X1) (Y1 Z1 X2 Y2)
+   * (Z2 X3 Y3 Z3), so each channel is one dot4 with e[g] of fixed swizzles (no indexing
+   * by a computed component, which llvmpipe runs 1.5× slower). Layers past the last
+   * (m not a multiple of 4) read as 0. */
+  for (int g = 0; g < SM_PRT_VEC4; g++) {
+    vec4 l0 = sm_albedo_filtered(c0, w, 3 * g);
+    vec4 l1 = 3 * g + 1 < SM_PRT_LAYERS ? sm_albedo_filtered(c0, w, 3 * g + 1) : vec4(0.0);
+    vec4 l2 = 3 * g + 2 < SM_PRT_LAYERS ? sm_albedo_filtered(c0, w, 3 * g + 2) : vec4(0.0);
+    xyz += vec3(dot(e[g], vec4(l0.x, l0.w, l1.z, l2.y)), dot(e[g], vec4(l0.y, l1.x, l1.w, l2.z)),
+                dot(e[g], vec4(l0.z, l1.y, l2.x, l2.w)));
   }
 #  endif
   /* Ringing of a band-limited sharp light: no physical spectrum has a negative XYZ. */

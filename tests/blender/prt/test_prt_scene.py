@@ -59,9 +59,13 @@ def test_vertex_xyz_against_the_monte_carlo_reference(clean_scene):
         assert np.mean(de) < 1.0 and np.percentile(de, 95) < 3.0, (illuminant, de.mean())
 
 
-def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene):
+@pytest.mark.parametrize("basis", [8, 5], ids=["m8", "m5"])
+def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis):
+    """m = 5 leaves the last group of packed albedo layers partly empty."""
     obj = _ledge_scene(clean_scene, subdivisions=6)
+    clean_scene.spectral.environment.basis_size = basis
     _setup(clean_scene, obj, kind="CHART", rays=128)
+    assert prt.albedo_layers(obj, clean_scene).layers.shape[0] == basis
     clean_scene.spectral.environment.rotation = 0.7
     obj.rotation_euler = (0.0, 0.0, 0.4)
     bpy.context.view_layer.update()
