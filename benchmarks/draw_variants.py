@@ -1,4 +1,4 @@
-"""Frame cost of two shader choices, each against the path it replaced, on the same packs.
+"""Frame cost of shader choices, each against the path it replaced, on the same packs.
 
 * **Edge rule** (issue 18): the "horizon" rule (f·cosθi falls to 0 at θi = 90°) against the
   "linear" rule. The rule is a uniform (``misc.x``): both draws run the same compiled
@@ -146,7 +146,7 @@ def run(args) -> dict:
 
 def markdown(results: dict) -> list[str]:
     m = results["machine"]
-    lines = ["# Frame cost of two shader choices, against the paths they replaced", "",
+    lines = ["# Frame cost of shader choices, against the paths they replaced", "",
              f"Printed by `{results['command']}` on {results['date']} at commit "
              f"{results['commit']}: {m['renderer']} ({m['backend']}), {m['cpu_count']} cores, "
              f"{results['size']}² target, {results['reps']} interleaved repetitions of 3 "
