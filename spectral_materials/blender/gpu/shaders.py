@@ -34,6 +34,12 @@ FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/ax
 #: a bound keeps compile time and frame time predictable.
 MAX_LIGHTS = 32
 
+#: Up to this many lights, a variant keeps every light's lookups live and fetches the
+#: view's axes once per pack for all of them (glsl/brdf/surface_frag.glsl); beyond it,
+#: light by light. The bound keeps each pixel's live state small (13 values per light)
+#: on GPUs, where it would otherwise spill; it is not yet measured on one.
+MAX_SHARED_VIEW_LIGHTS = 8
+
 #: Light rows go in a uniform buffer while they fit 16 KiB (1024 vec4), the size every
 #: OpenGL implementation must allow (GL_MAX_UNIFORM_BLOCK_SIZE ≥ 16384); larger ones
 #: (many lights × many packs) stay in the light texture.
@@ -102,7 +108,8 @@ class ShaderKey:
             "SM_LIGHTS": str(self.lights),
             "SM_LIGHT_TYPES": str(light_type_bits(self.light_types)),
             "SM_LIGHT_STRIDE": str(self.light_stride),
-            "SM_VIEW_AXES": str(view_axes_mask(self.parameterization)),
+            "SM_VIEW_AXES": str(view_axes_mask(self.parameterization)
+                                if self.lights <= MAX_SHARED_VIEW_LIGHTS else 0),
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             **output_defines(SURFACE_REQUESTS[self.output]),

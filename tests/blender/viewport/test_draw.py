@@ -96,8 +96,12 @@ FOUR_LIGHT_GRIDS = {"io": (12, 24, 12, 24), "io_iso": (12, 24, 12), "ea": (12, 1
                     "hd": (10, 12, 10, 12)}
 
 
-@pytest.mark.parametrize("parameterization", list(FOUR_LIGHT_GRIDS))
-def test_every_light_type_in_a_scene(clean_scene, parameterization):
+@pytest.mark.parametrize(("parameterization", "copies"),
+                         [(name, 1) for name in FOUR_LIGHT_GRIDS] + [("io_iso", 3)],
+                         ids=[*FOUR_LIGHT_GRIDS, "io_iso-12-lights"])
+def test_every_light_type_in_a_scene(clean_scene, parameterization, copies):
+    """Four lights share the view's axes per pack (SM_VIEW_AXES); twelve, more than
+    shaders.MAX_SHARED_VIEW_LIGHTS, go light by light. Both against the mirror."""
     bpy.data.objects.remove(bpy.data.objects["Cube"])
     bpy.data.objects.remove(bpy.data.objects["Light"])
     model = factor.factor_brdf(
@@ -107,22 +111,37 @@ def test_every_light_type_in_a_scene(clean_scene, parameterization):
         resolution=FOUR_LIGHT_GRIDS[parameterization], packs=2, spectral_basis=8)
     assert model.parameterization == parameterization
     _, material = _sphere_with(model)
-    for kind, location, energy in (("SUN", (2, -2, 3), 2.0), ("POINT", (3, -4, 2), 400.0),
-                                   ("SPOT", (6, -6, 4), 2000.0), ("AREA", (-3, -5, 3), 300.0)):
-        data = bpy.data.lights.new(kind, kind)
-        data.energy = energy
-        data.spectral.illuminant = {"SUN": "D65", "POINT": "A", "SPOT": "FL2", "AREA": "FL11"}[
-            kind]
-        obj = bpy.data.objects.new(kind, data)
-        obj.location = location
-        clean_scene.collection.objects.link(obj)
-        # Aim at the origin: a light shines along its local −Z.
-        direction = -np.asarray(location, dtype=float)
-        obj.rotation_euler = _track(direction)
+    for copy in range(copies):
+        for kind, location, energy in (("SUN", (2, -2, 3), 2.0), ("POINT", (3, -4, 2), 400.0),
+                                       ("SPOT", (6, -6, 4), 2000.0),
+                                       ("AREA", (-3, -5, 3), 300.0)):
+            data = bpy.data.lights.new(kind, kind)
+            data.energy = energy / copies
+            data.spectral.illuminant = {"SUN": "D65", "POINT": "A", "SPOT": "FL2",
+                                        "AREA": "FL11"}[kind]
+            obj = bpy.data.objects.new(kind, data)
+            obj.location = (location[0] + copy, location[1], location[2] + 0.5 * copy)
+            clean_scene.collection.objects.link(obj)
+            # Aim at the origin: a light shines along its local −Z.
+            obj.rotation_euler = _track(-np.asarray(obj.location, dtype=float))
     bpy.context.view_layer.update()
     lights, _ = scene_lights.drawn_lights(clean_scene)
-    assert sorted(light.kind for light in lights) == ["AREA", "POINT", "SPOT", "SUN"]
+    assert sorted(light.kind for light in lights) == sorted(["AREA", "POINT", "SPOT",
+                                                             "SUN"] * copies)
     assert _gpu_against_mirror(clean_scene, material).max() <= 0.1
+
+
+def test_the_view_axes_are_shared_by_at_most_eight_lights():
+    from spectral_materials.blender.gpu import shaders
+
+    def mask(lights):
+        return shaders.ShaderKey("io_iso", 3, 2, 8, lights, frozenset({"SUN"})).defines()[
+            "SM_VIEW_AXES"]
+
+    assert (mask(1), mask(shaders.MAX_SHARED_VIEW_LIGHTS),
+            mask(shaders.MAX_SHARED_VIEW_LIGHTS + 1)) == ("4", "4", "0")
+    assert shaders.ShaderKey("hd", 4, 2, 8, 2, frozenset({"SUN"})).defines()[
+        "SM_VIEW_AXES"] == "0"
 
 
 def _paint_cube(model, name="Paint"):
