@@ -272,7 +272,10 @@ class FactoredBRDF:
         return cls(**kwargs)
 
     def validate(self) -> None:
-        """Check array shapes and finiteness against the grid; ValueError naming the array."""
+        """Check array shapes and finiteness against the grid, and the edge rule; ValueError
+        naming what is wrong."""
+        if self.edge not in EDGE_RULES:
+            raise ValueError(f"unknown edge rule {self.edge!r}; one of {', '.join(EDGE_RULES)}")
         shape = self.grid.shape
         if self.basis is not None and (self.basis.ndim != 2 or not np.isfinite(self.basis).all()):
             raise ValueError("basis must be a finite 2-D array")

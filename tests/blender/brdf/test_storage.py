@@ -91,6 +91,16 @@ def test_load_refuses_a_damaged_image(clean_scene):
         storage.load_factored(material)
 
 
+def test_load_refuses_an_unknown_edge_rule_and_names_the_material(clean_scene):
+    """A hand-edited or future file whose edge rule this version does not know."""
+    material = spectral_material()
+    storage.store_factored(material, _random_model(4, 3))
+    assert storage.load_factored(material).edge in ("linear", "horizon")
+    material.spectral.result.edge = "bogus"
+    with pytest.raises(storage.StorageError, match=r"Material '.*'.*unknown edge rule 'bogus'"):
+        storage.load_factored(material)
+
+
 _REOPEN = textwrap.dedent("""
     import sys, numpy as np, bpy
     from spectral_materials import blender as addon
