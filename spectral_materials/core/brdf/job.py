@@ -43,6 +43,7 @@ class MaterialJobResult:
     series: list[dict] = field(default_factory=list)   # per pack count: packs, ΔE94, seconds
     plot: np.ndarray | None = None                     # RGBA float32, row 0 at the bottom
     seconds: float = 0.0
+    models: list[FactoredBRDF] = field(default_factory=list)   # per row of ``series``
 
 
 def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions,
@@ -86,4 +87,5 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     p95 = [row["de94"].get("p95", row["de94"]["mean"]) for row in series]
     plot = plot_error_against_packs(packs, means, p95, target=options.target_de94)
     report(callback, 1.0, "done")
-    return MaterialJobResult(model=final, series=series, plot=plot, seconds=seconds)
+    return MaterialJobResult(model=final, series=series, plot=plot, seconds=seconds,
+                             models=list(models) if options.target_de94 is None else [final])
