@@ -182,7 +182,7 @@ def material_rows(material: str, texels: int, cp_packs: int, images: bool) -> di
 # ------------------------------------------------------------------- frame time
 
 
-def _btf_binder(model, data: btf.BTF, lights, vp: np.ndarray):
+def btf_binder(model, data: btf.BTF, lights, vp: np.ndarray):
     """The drawable BTF material of a fit, and a function binding its shader."""
     from spectral_materials.blender.btf import drawer as btf_gpu
     from spectral_materials.blender.gpu.display import DisplaySettings
@@ -203,7 +203,7 @@ def _btf_binder(model, data: btf.BTF, lights, vp: np.ndarray):
     return resource, bind_btf
 
 
-def _uv_sphere_batch():
+def uv_sphere_batch():
     """The draw benchmark's sphere with longitude/latitude UVs, as one batch."""
     from spectral_materials.blender.gpu import batches as mesh_batches
 
@@ -228,7 +228,7 @@ def frame_times(frames: int, reps: int) -> list[dict]:
     from .draw_baseline import Baseline
 
     ensure_gpu()
-    batch = _uv_sphere_batch()
+    batch = uv_sphere_batch()
     size = 800
     vp = view_projection(1.0)
     rows = []
@@ -245,7 +245,7 @@ def frame_times(frames: int, reps: int) -> list[dict]:
                 return baseline.shader
 
             for kind, model in fits.items():
-                resource, bind_btf = _btf_binder(model, data, lights, vp)
+                resource, bind_btf = btf_binder(model, data, lights, vp)
                 _, covered, lit = bench.warm(bind_btf)
                 bench.warm(bind_baseline)
                 t_btf, t_base = [], []

@@ -9,6 +9,9 @@
 * **Light loop** (issue 19): with several lights, packs outermost and the view's axes
   (θo for io_iso) fetched once per pack for all lights, against the light-by-light loop
   (the same variant with that branch compiled out, :func:`light_by_light_shader`).
+* **Texel blend** (issue 19): BTF texels blended across their edges
+  (``render.EDGE_BLEND``) against nearest texels (the same variant compiled with a band
+  of 0), on :mod:`benchmarks.btf`'s corduroy fits and UV sphere (800², 4 repeats).
 
 The benchmark sphere of :mod:`benchmarks.draw` (about 1.0 M pixels at 1200²), synthetic
 io_iso packs in the paper's 90×180×90 layout, pre-contracted; timings interleaved
@@ -46,8 +49,11 @@ from .synthetic import DISC_FRACTION, synthetic_model
 CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
          ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4),
          ("light loop", 4, 4), ("light loop", 22, 4), ("light loop", 4, 8))
+#: BTF cases: (comparison, reflectance-field kind, lights), on their own target.
+BTF_CASES = (("texel blend", "RFP", 1), ("texel blend", "RFNL", 1), ("texel blend", "RFNL", 4))
 LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer"),
-          "light loop": ("light by light", "view axes once per pack")}
+          "light loop": ("light by light", "view axes once per pack"),
+          "texel blend": ("nearest texel", "blended edges")}
 #: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack.
 HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1"
 
@@ -99,15 +105,47 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
             _binder(bench, material, key, material.light_texture(lights, True)))
 
 
-def measure(bench: Bench, comparison: str, packs: int, n_lights: int) -> dict:
-    before, after = binders(bench, comparison, packs, n_lights)
+def nearest_texel_shader(key):
+    """The BTF variant ``key`` compiled with a blend band of 0: nearest texels only."""
+    import gpu
+
+    from spectral_materials.blender.btf import drawer as btf_gpu
+
+    band = btf_gpu.EDGE_BLEND
+    btf_gpu.EDGE_BLEND = 0.0
+    try:
+        info = btf_gpu.create_info(key)
+    finally:
+        btf_gpu.EDGE_BLEND = band
+    return gpu.shader.create_from_info(info)
+
+
+def btf_binders(fits: dict, data, kind: str, n_lights: int, vp):
+    """(nearest, blended) bind functions of one BTF fit."""
+    from .btf import btf_binder
+
+    lights = make_lights(n_lights)
+    resource, blended = btf_binder(fits[kind], data, lights, vp)
+    shader = nearest_texel_shader(resource.key(lights, output="DISPLAY"))
+    rows = resource.light_texture(lights)
+    params = resource.params(DisplaySettings(), VIEW_ORIGIN, vp)
+
+    def nearest():
+        resource.bind(shader, rows, params)
+        return shader
+    return nearest, blended
+
+
+def measure(bench: Bench, comparison: str, packs, n_lights: int, pair=None) -> dict:
+    before, after = pair or binders(bench, comparison, packs, n_lights)
     bench.warm(before)
     bench.warm(after)
     timings = harness.interleave(lambda: bench.seconds_per_frame(after),
                                  lambda: bench.seconds_per_frame(before), bench.reps)
     ratios = timings.ratios()
     names = LABELS[comparison]
-    return {"comparison": comparison, "layout": "io_iso", "packs": packs, "lights": n_lights,
+    what = f"BTF {packs}" if comparison == "texel blend" else f"io_iso, {packs} packs"
+    return {"comparison": comparison, "case": what, "packs": packs, "lights": n_lights,
             "before": names[0], "after": names[1],
             "before_ms": 1e3 * float(np.median(timings.baseline)),
             "after_ms": 1e3 * float(np.median(timings.candidate)),
@@ -131,17 +169,48 @@ def run(args) -> dict:
         try:
             bench = Bench(target, batch, vp, frames=3, reps=args.reps)
             for comparison, packs, n_lights in CASES:
-                row = measure(bench, comparison, packs, n_lights)
-                rows.append(row)
-                harness.log(f"  {comparison}: {packs} packs, {n_lights} lights: "
-                            f"{row['before']} {row['before_ms']:.1f} ms, {row['after']} "
-                            f"{row['after_ms']:.1f} ms, ratio {row['after_over_before']:.3f}")
+                rows.append(measure(bench, comparison, packs, n_lights))
+                _log(rows[-1])
         finally:
             gpu.state.face_culling_set("NONE")
+    rows += btf_rows(args)
     return {"date": harness.date_stamp(), "command": harness.command_line("draw_variants"),
             "commit": harness.commit_of(), "machine": info, "quick": args.quick,
             "size": args.size, "reps": args.reps, "rows": rows,
             "seconds": time.perf_counter() - started}
+
+
+def _log(row: dict) -> None:
+    harness.log(f"  {row['comparison']}: {row['case']}, {row['lights']} lights: "
+                f"{row['before']} {row['before_ms']:.1f} ms, {row['after']} "
+                f"{row['after_ms']:.1f} ms, ratio {row['after_over_before']:.3f}")
+
+
+def btf_rows(args) -> list[dict]:
+    """The texel-blend comparison on benchmarks.btf's corduroy fits and UV sphere."""
+    import gpu
+
+    from spectral_materials.blender.gpu.offscreen import Target
+    from spectral_materials.core.btf import fit as btf_fit, generate as btf_generate
+
+    from .btf import uv_sphere_batch
+
+    data = btf_generate.generate_btf("corduroy", texels=16)
+    fits = {"RFP": btf_fit.fit_rfp(data), "RFNL": btf_fit.fit_rfnl(data, lobes=2)}
+    size = 800 if not args.quick else 400
+    vp = view_projection(1.0)
+    rows = []
+    with Target(size, size) as target:
+        gpu.state.face_culling_set("BACK")
+        try:
+            bench = Bench(target, uv_sphere_batch(), vp, frames=3, reps=args.reps)
+            for comparison, kind, n_lights in BTF_CASES:
+                pair = btf_binders(fits, data, kind, n_lights, vp)
+                rows.append(measure(bench, comparison, kind, n_lights, pair))
+                _log(rows[-1])
+        finally:
+            gpu.state.face_culling_set("NONE")
+    return rows
 
 
 def markdown(results: dict) -> list[str]:
@@ -157,13 +226,16 @@ def markdown(results: dict) -> list[str]:
              "compiled variant. *Light rows*: the light rows from the uniform buffer "
              "`sm_lights` against the light texture (issue 19). *Light loop*: with several "
              "lights, packs outermost and θo's factors fetched once per pack for all lights, "
-             "against the light-by-light loop (issue 19). io_iso 90×180×90, "
-             "pre-contracted, synthetic packs.", "",
-             "| comparison | packs | lights | before | ms/frame | after | ms/frame | after / "
+             "against the light-by-light loop (issue 19). These three: io_iso 90×180×90, "
+             "pre-contracted, synthetic packs, on the draw benchmark's sphere. *Texel "
+             "blend*: BTF texels blended within 1/16 texel of their edges against nearest "
+             "texels (issue 19), corduroy fits (16² texels, 4 repeats over the UVs) on an 800² "
+             "UV sphere.", "",
+             "| comparison | case | lights | before | ms/frame | after | ms/frame | after / "
              "before (median of paired ratios) |",
              "|---|---|---|---|---|---|---|---|"]
     for r in results["rows"]:
-        lines.append(f"| {r['comparison']} | {r['packs']} | {r['lights']} | {r['before']} | "
+        lines.append(f"| {r['comparison']} | {r['case']} | {r['lights']} | {r['before']} | "
                      f"{r['before_ms']:.1f} | {r['after']} | {r['after_ms']:.1f} | "
                      f"{r['after_over_before']:.3f} |")
     return lines + [""]

@@ -1,11 +1,12 @@
-/* Mirror: spectral_materials.core.btf.render.DrawableBTF.shade_xyz */
+/* Mirror: spectral_materials.core.btf.render.DrawableBTF.shade_xyz, spectral_materials.core.btf.render.DrawableBTF.texel_blend */
 /* Reflectance-field BTF (Meseth, Müller, Klein 2003, §5.1): per light, the fitted
  * luminance RF_v'(x, l) of the three measured views around the local view direction,
  * blended with barycentric weights, times the texel's spectral albedo under that
  * light. Mirrors spectral_materials/core/btf/render.py DrawableBTF.shade_xyz.
  * SM_BTF_KIND_RFP: biquadratic in l.x, l.y; SM_BTF_KIND_RFNL: ρd + Σ a_j max(t̂_j·l, 0)^n_j,
  * with unit t̂ so that nothing overflows. Parameters are fetched unfiltered (nearest texel,
- * repeat). SM_OUTPUT is one of SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world),
+ * repeat), and a texel's shading blends with its neighbour's near texel edges
+ * (sm_btf_texel_blend). SM_OUTPUT is one of SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world),
  * _NORMAL (facing the viewer), _TANGENT (raw) and _UV (blender/gpu/outputs.py). */
 
 vec4 sm_btf_record(int record, ivec2 texel)
@@ -34,6 +35,44 @@ float sm_btf_luminance(int view, ivec2 texel, vec3 l)
   return max(y, 0.0);
 }
 
+/* The texels a point's shading blends and their weights: per axis the texel alone, or
+ * within SM_BTF_EDGE (texels) of an edge, it and its neighbour across the edge (repeat
+ * wrap), ½ each at the edge. Continuous in the UV, so that GPUs whose interpolated UVs
+ * differ by rounding draw the same picture (issue 19). i: the texel, n: its neighbours
+ * across the near edges; blend weighs (i.x, i.y), (n.x, i.y), (i.x, n.y), (n.x, n.y).
+ * Mirrors DrawableBTF.texel_blend. */
+void sm_btf_texel_blend(vec2 st, out ivec2 i, out ivec2 n, out vec4 blend)
+{
+  vec2 f = st - floor(st);
+  vec2 s = f * vec2(sm.tiles.xy);
+  i = clamp(ivec2(floor(s)), ivec2(0), sm.tiles.xy - 1);
+  vec2 g = s - vec2(i);
+  ivec2 step = ivec2(0);
+  vec2 own = vec2(1.0);
+  for (int k = 0; k < 2; k++) {
+    if (g[k] < SM_BTF_EDGE) {
+      own[k] = 0.5 + 0.5 * g[k] / SM_BTF_EDGE;
+      step[k] = -1;
+    }
+    else if (g[k] > 1.0 - SM_BTF_EDGE) {
+      own[k] = 0.5 + 0.5 * (1.0 - g[k]) / SM_BTF_EDGE;
+      step[k] = 1;
+    }
+  }
+  /* i + step ∈ [−1, size]: wrapped without % on negative ints (undefined in GLSL). */
+  n = i + step;
+  n = ivec2(n.x < 0 ? sm.tiles.x - 1 : (n.x >= sm.tiles.x ? 0 : n.x),
+            n.y < 0 ? sm.tiles.y - 1 : (n.y >= sm.tiles.y ? 0 : n.y));
+  blend = vec4(own.x * own.y, (1.0 - own.x) * own.y, own.x * (1.0 - own.y),
+               (1.0 - own.x) * (1.0 - own.y));
+}
+
+/* Texel t of the blend: (i or n).x by bit 0 of t, (i or n).y by bit 1. */
+ivec2 sm_btf_blend_texel(ivec2 i, ivec2 n, int t)
+{
+  return ivec2((t & 1) == 0 ? i.x : n.x, (t & 2) == 0 ? i.y : n.y);
+}
+
 void main()
 {
   vec3 P = world_position;
@@ -58,31 +97,48 @@ void main()
   ivec3 views;
   vec3 w;
   sm_btf_views(v, views, w);
-  vec2 st = tex_uv * sm.uv_scale.xy;
-  vec2 f = st - floor(st);
-  ivec2 texel = clamp(ivec2(floor(f * vec2(sm.tiles.xy))), ivec2(0), sm.tiles.xy - 1);
-  float c[4 * SM_BTF_ALBEDO_RECORDS];
-  for (int r = 0; r < SM_BTF_ALBEDO_RECORDS; r++) {
-    vec4 a = sm_btf_record(r, texel);
-    c[4 * r] = a.x;
-    c[4 * r + 1] = a.y;
-    c[4 * r + 2] = a.z;
-    c[4 * r + 3] = a.w;
+  ivec2 i, n;
+  vec4 blend;
+  sm_btf_texel_blend(tex_uv * sm.uv_scale.xy, i, n, blend);
+  /* Albedo coefficients of the blended texels, 4 · SM_BTF_ALBEDO_RECORDS each. */
+  float c[16 * SM_BTF_ALBEDO_RECORDS];
+  for (int t = 0; t < 4; t++) {
+    if (blend[t] > 0.0) {
+      for (int r = 0; r < SM_BTF_ALBEDO_RECORDS; r++) {
+        vec4 a = sm_btf_record(r, sm_btf_blend_texel(i, n, t));
+        int base = 4 * (t * SM_BTF_ALBEDO_RECORDS + r);
+        c[base] = a.x;
+        c[base + 1] = a.y;
+        c[base + 2] = a.z;
+        c[base + 3] = a.w;
+      }
+    }
   }
+  /* Lights outermost: a light's incidence and spectral weights once, then each blended
+   * texel's luminance and albedo. */
   vec3 xyz = vec3(0.0);
   for (int light = 0; light < SM_LIGHTS; light++) {
     vec3 wi_world;
     float irradiance = sm_light_incidence(light, P, wi_world);
     vec3 l = sm_to_local(frame, wi_world);
     if (irradiance > 0.0 && l.z > 0.0) {
-      float y = w.x * sm_btf_luminance(views.x, texel, l) +
-                w.y * sm_btf_luminance(views.y, texel, l) +
-                w.z * sm_btf_luminance(views.z, texel, l);
-      vec3 albedo_xyz = vec3(0.0);
+      vec3 k[SM_BTF_COEFFS];
       for (int j = 0; j < SM_BTF_COEFFS; j++) {
-        albedo_xyz += c[j] * sm_light_texel(SM_LIGHT_HEADER + j, light).xyz;
+        k[j] = sm_light_texel(SM_LIGHT_HEADER + j, light).xyz;
       }
-      xyz += (irradiance * y / SM_PI) * albedo_xyz;
+      for (int t = 0; t < 4; t++) {
+        if (blend[t] > 0.0) {
+          ivec2 texel = sm_btf_blend_texel(i, n, t);
+          float y = w.x * sm_btf_luminance(views.x, texel, l) +
+                    w.y * sm_btf_luminance(views.y, texel, l) +
+                    w.z * sm_btf_luminance(views.z, texel, l);
+          vec3 albedo_xyz = vec3(0.0);
+          for (int j = 0; j < SM_BTF_COEFFS; j++) {
+            albedo_xyz += c[4 * t * SM_BTF_ALBEDO_RECORDS + j] * k[j];
+          }
+          xyz += (blend[t] * irradiance * y / SM_PI) * albedo_xyz;
+        }
+      }
     }
   }
 #  if SM_OUTPUT == SM_OUTPUT_XYZ

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.btf.container import HemisphereTriangulation
-from ...core.btf.render import KINDS, DrawableBTF, TileLayout
+from ...core.btf.render import EDGE_BLEND, KINDS, DrawableBTF, TileLayout
 from ...core.lights import SpectralLight
 from ..gpu import shaders
 from ..gpu.context import ensure_gpu
@@ -58,6 +58,7 @@ class BTFShaderKey:
         return {"SM_BTF_KIND": str(KIND_CODES[self.kind]), "SM_BTF_LOBES": str(self.lobes),
                 **{f"SM_BTF_KIND_{kind}": str(code) for kind, code in KIND_CODES.items()},
                 "SM_BTF_COEFFS": str(self.coefficients),
+                "SM_BTF_EDGE": repr(float(EDGE_BLEND)),
                 "SM_BTF_ALBEDO_RECORDS": str(-(-self.coefficients // 4)),
                 "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
                 "SM_LIGHTS": str(self.lights),

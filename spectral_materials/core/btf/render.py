@@ -54,6 +54,13 @@ from .fit import rfp_basis
 from .lm import A_MAX, N_MAX, N_MIN  # noqa: F401  (re-exported bounds)
 
 KINDS = ("RFP", "RFNL")
+#: Width, in texels, of the band along each texel edge where a texel's shading blends with
+#: its neighbour's (:meth:`DrawableBTF.texel_blend`): 0.5 at the edge, the texel alone
+#: from this far inside. Nearest-texel picking jumps where a float32 UV sits on an edge,
+#: so two GPUs (or the GPU and this mirror) could pick different texels there; the band
+#: makes the picture continuous (issue 19) at the cost of shading two or four texels in
+#: ``2ε − ε²`` of the texel's area per axis pair (about 23 % at 1/16).
+EDGE_BLEND = 1.0 / 16.0
 #: Largest lobe amplitude stored, and the lobe exponents' range: the fit's bounds
 #: (``btf_lm``), so a fitted model is drawn as fitted.
 AMPLITUDE_MAX = A_MAX
@@ -224,6 +231,43 @@ class DrawableBTF:
         row = np.clip(np.floor(f[..., 1] * np.float32(h)), 0, h - 1).astype(np.int64)
         return row, col
 
+    def texel_blend(self, uv: np.ndarray, scale=(1.0, 1.0)
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows, columns and weights (N, 4) of the texels a point's shading blends, computed
+        in float32 as the shader does (glsl/btf/btf_frag.glsl ``sm_btf_texel_blend``).
+
+        Per axis, with ``s = fract(uv · scale) · size`` and ``g = s − ⌊s⌋``: the texel
+        ``⌊s⌋`` alone where ``ε ≤ g ≤ 1 − ε`` (ε = :data:`EDGE_BLEND`); within ε of an
+        edge, that texel with weight ``½ + ½·g/ε`` (or ``½ + ½·(1 − g)/ε``) and its
+        neighbour across the edge (repeat wrap) with the rest. The four entries are
+        (self, self), (neighbour, self), (self, neighbour), (neighbour, neighbour) in
+        (column, row); weights sum to 1 and vary continuously with ``uv``.
+        """
+        h, w = self.texels
+        st = np.asarray(uv, np.float32) * np.asarray(scale, np.float32)
+        f = st - np.floor(st)
+        eps = np.float32(EDGE_BLEND)
+        half = np.float32(0.5)
+        axes = []
+        for k, size in ((0, w), (1, h)):
+            s = f[..., k] * np.float32(size)
+            i = np.clip(np.floor(s), 0, size - 1)
+            g = s - i
+            low, high = g < eps, g > np.float32(1.0) - eps
+            own = np.where(low, half + half * g / eps,
+                           np.where(high, half + half * (np.float32(1.0) - g) / eps,
+                                    np.float32(1.0))).astype(np.float32)
+            step = np.where(low, -1, np.where(high, 1, 0))
+            index = i.astype(np.int64)
+            axes.append((index, np.mod(index + step, size), own))
+        (c0, c1, wc), (r0, r1, wr) = axes
+        one = np.float32(1.0)
+        rows = np.stack([r0, r0, r1, r1], axis=-1)
+        cols = np.stack([c0, c1, c0, c1], axis=-1)
+        weights = np.stack([wc * wr, (one - wc) * wr, wc * (one - wr), (one - wc) * (one - wr)],
+                           axis=-1)
+        return rows, cols, weights.astype(np.float64)
+
     def luminance(self, view: np.ndarray, row: np.ndarray, col: np.ndarray,
                   lights: np.ndarray) -> np.ndarray:
         """RF_view(texel, l) for arrays of view indices, texels and local light
@@ -267,16 +311,22 @@ class DrawableBTF:
                   scale=(1.0, 1.0)) -> np.ndarray:
         """XYZ (N, 3) at surface points: ``frames`` (N, 3, 3) rows t, b, n (world), the
         world ``points`` (N, 3), unit ``toward_viewer`` (N, 3). Mirrors the shader."""
-        row, col = self.texel_of(uv, scale)
+        rows, cols, blend = self.texel_blend(uv, scale)
         views = np.einsum("nij,nj->ni", frames, toward_viewer)
-        coeff = self.coefficients[row, col].astype(np.float64)           # (N, m)
-        xyz = np.zeros((len(row), 3))
+        xyz = np.zeros((len(rows), 3))
         for light in lights:
             wi, irradiance = light.incidence(points)
             local = np.einsum("nij,nj->ni", frames, wi)
-            y = self.interpolated_luminance(row, col, local, views)
             weights = light.weights(WAVELENGTHS, self.basis)              # (m, 3)
-            xyz += (irradiance * y / np.pi)[:, None] * (coeff @ weights)
+            for t in range(4):
+                used = blend[:, t] > 0
+                if not used.any():
+                    continue
+                row, col = rows[used, t], cols[used, t]
+                coeff = self.coefficients[row, col].astype(np.float64)    # (n, m)
+                y = self.interpolated_luminance(row, col, local[used], views[used])
+                xyz[used] += (blend[used, t] * irradiance[used] * y / np.pi)[:, None] \
+                    * (coeff @ weights)
         return xyz
 
 
