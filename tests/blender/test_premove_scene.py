@@ -35,7 +35,20 @@ def test_stored_results_read_back(premove_scene):
         paint.node_tree is not None
 
 
-def test_draws_what_it_drew_before_the_move(premove_scene):
+@pytest.fixture
+def nearest_btf_texels(monkeypatch):
+    """BTF texels as they were drawn when the file was saved: nearest, no blend across
+    their edges (issue 19 added the blend, on purpose; render.EDGE_BLEND)."""
+    from spectral_materials.blender.btf import drawer as btf_drawer
+    from spectral_materials.blender.gpu import shaders
+
+    shaders.clear_cache()
+    monkeypatch.setattr(btf_drawer, "EDGE_BLEND", 0.0)
+    yield
+    shaders.clear_cache()
+
+
+def test_draws_what_it_drew_before_the_move(premove_scene, nearest_btf_texels):
     before = np.load(DATA / "pixels.npz")["xyz"]
     height, width = before.shape[:2]
     after, stats = draw.render_camera(premove_scene, width=width, height=height)
@@ -45,3 +58,17 @@ def test_draws_what_it_drew_before_the_move(premove_scene):
     # Bit-identical on OpenGL through llvmpipe; Vulkan (lavapipe) rounds a few float32
     # operations differently (measured: 5.8e-6 at most on values up to 1).
     np.testing.assert_allclose(after, before, rtol=0.0, atol=5e-5)
+
+
+def test_the_btf_texel_blend_changes_only_pixels_near_texel_edges(premove_scene):
+    """Today's rule on the same file: the BRDF and PRT objects draw as before, and the
+    BTF differs only where texels now blend across an edge: a minority of its pixels."""
+    from spectral_materials.blender.gpu import shaders
+
+    shaders.clear_cache()
+    before = np.load(DATA / "pixels.npz")["xyz"]
+    height, width = before.shape[:2]
+    after, _ = draw.render_camera(premove_scene, width=width, height=height)
+    np.testing.assert_array_equal(after[..., 3] > 0, before[..., 3] > 0)
+    changed = np.abs(after - before).max(axis=-1) > 5e-5
+    assert 0 < changed.sum() < 0.1 * (before[..., 3] > 0).sum()
