@@ -234,6 +234,9 @@ def error_curve(job, pairs: Pairs, reference: dict) -> list[dict]:
     seconds (tabulation and fitting up to that count) and mean / p95 ΔE94 of that
     count's packs under the linear rule and under the stored one."""
     ill = ILLUMINANTS[0]
+    if len(job.models) != len(job.series):
+        raise ValueError("an error curve needs a model per pack count: factor without a "
+                         "target ΔE94")
     rows = []
     for row, cut in zip(job.series, job.models):
         packs = int(row["packs"])

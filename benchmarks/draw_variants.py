@@ -107,17 +107,9 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
 
 def nearest_texel_shader(key):
     """The BTF variant ``key`` compiled with a blend band of 0: nearest texels only."""
-    import gpu
-
     from spectral_materials.blender.btf import drawer as btf_gpu
 
-    band = btf_gpu.EDGE_BLEND
-    btf_gpu.EDGE_BLEND = 0.0
-    try:
-        info = btf_gpu.create_info(key)
-    finally:
-        btf_gpu.EDGE_BLEND = band
-    return gpu.shader.create_from_info(info)
+    return btf_gpu.get_shader(replace(key, edge=0.0))
 
 
 def btf_binders(fits: dict, data, kind: str, n_lights: int, vp):

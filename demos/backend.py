@@ -17,6 +17,11 @@ from collections.abc import MutableMapping, Sequence
 
 CHOICES = ("auto", "opengl", "vulkan")
 HIDE_VULKAN = "/nonexistent.json"
+#: The Vulkan loader's driver lists: newer loaders read VK_DRIVER_FILES first, older ones
+#: VK_ICD_FILENAMES; VK_ADD_DRIVER_FILES adds to either. Any of them set is the user's
+#: choice under ``auto``.
+DRIVER_VARIABLES = ("VK_DRIVER_FILES", "VK_ICD_FILENAMES")
+USER_VARIABLES = (*DRIVER_VARIABLES, "VK_ADD_DRIVER_FILES")
 
 
 def requested_backend(argv: Sequence[str]) -> str:
@@ -41,24 +46,33 @@ def choose_backend(argv: Sequence[str], environ: MutableMapping[str, str] | None
     """Set the Vulkan loader's environment for the backend asked for; return what was
     decided: ``"opengl"``, ``"vulkan"`` or ``"blender"`` (Blender's own choice).
 
-    An explicit ``VK_ICD_FILENAMES`` is the user's choice and is left alone under ``auto``.
+    An explicit driver list (:data:`USER_VARIABLES`) is the user's choice and is left
+    alone under ``auto``.
     """
     environ = os.environ if environ is None else environ
     wanted = requested_backend(argv)
     if wanted not in CHOICES:
         return "blender"    # the argument parser reports the bad value
     if wanted == "opengl":
-        environ["VK_ICD_FILENAMES"] = HIDE_VULKAN
+        _hide_vulkan(environ)
         return "opengl"
     if wanted == "vulkan":
-        if environ.get("VK_ICD_FILENAMES") == HIDE_VULKAN:
-            del environ["VK_ICD_FILENAMES"]
+        for name in DRIVER_VARIABLES:
+            if environ.get(name) == HIDE_VULKAN:
+                del environ[name]
         return "vulkan"
-    if "VK_ICD_FILENAMES" in environ or not platform.startswith("linux"):
+    if any(name in environ for name in USER_VARIABLES) or not platform.startswith("linux"):
         return "blender"
     if gpu_device_node is None:
         gpu_device_node = has_gpu_device_node()
     if gpu_device_node:
         return "blender"
-    environ["VK_ICD_FILENAMES"] = HIDE_VULKAN
+    _hide_vulkan(environ)
     return "opengl"
+
+
+def _hide_vulkan(environ: MutableMapping[str, str]) -> None:
+    """No Vulkan driver for the loader, whichever list it reads: Blender takes OpenGL."""
+    for name in DRIVER_VARIABLES:
+        environ[name] = HIDE_VULKAN
+    environ.pop("VK_ADD_DRIVER_FILES", None)

@@ -39,7 +39,8 @@ from .sizes import DemoSizes, sizes_for
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    # No abbreviations: --gpu-backend is read before this parser runs (demos/backend.py).
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--out", type=Path, default=REPO / "out")
     parser.add_argument("--theta-cells", type=int, default=None,
                         help="θ cells per 90° for every material (default 64, quick 12)")

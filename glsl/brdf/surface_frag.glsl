@@ -62,7 +62,12 @@ void main()
     float irradiance = sm_light_incidence(light, P, wi_world);
     vec3 wi = sm_to_local(frame, wi_world);
     weight[light] = 0.0;
-    lookups[light] = SmLookup(ivec4(0), ivec4(0), vec4(0.0), 1.0);   /* unread: weight 0 */
+    /* Unread while the weight is 0; set field by field (no struct constructor, which
+     * not every shader translation accepts). */
+    lookups[light].i0 = ivec4(0);
+    lookups[light].i1 = ivec4(0);
+    lookups[light].w = vec4(0.0);
+    lookups[light].scale = 1.0;
     if (irradiance > 0.0 && wi.z > 0.0 && wo.z > 0.0) {
       lookups[light] = sm_lookups(sm_coordinates(wi, wo));
       weight[light] = irradiance * lookups[light].scale;

@@ -47,20 +47,20 @@ void sm_btf_texel_blend(vec2 st, out ivec2 i, out ivec2 n, out vec4 blend)
   vec2 s = f * vec2(sm.tiles.xy);
   i = clamp(ivec2(floor(s)), ivec2(0), sm.tiles.xy - 1);
   vec2 g = s - vec2(i);
-  ivec2 step = ivec2(0);
+  ivec2 side = ivec2(0);
   vec2 own = vec2(1.0);
   for (int k = 0; k < 2; k++) {
     if (g[k] < SM_BTF_EDGE) {
       own[k] = 0.5 + 0.5 * g[k] / SM_BTF_EDGE;
-      step[k] = -1;
+      side[k] = -1;
     }
     else if (g[k] > 1.0 - SM_BTF_EDGE) {
       own[k] = 0.5 + 0.5 * (1.0 - g[k]) / SM_BTF_EDGE;
-      step[k] = 1;
+      side[k] = 1;
     }
   }
-  /* i + step ∈ [−1, size]: wrapped without % on negative ints (undefined in GLSL). */
-  n = i + step;
+  /* i + side ∈ [−1, size]: wrapped without % on negative ints (undefined in GLSL). */
+  n = i + side;
   n = ivec2(n.x < 0 ? sm.tiles.x - 1 : (n.x >= sm.tiles.x ? 0 : n.x),
             n.y < 0 ? sm.tiles.y - 1 : (n.y >= sm.tiles.y ? 0 : n.y));
   blend = vec4(own.x * own.y, (1.0 - own.x) * own.y, own.x * (1.0 - own.y),

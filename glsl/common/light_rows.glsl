@@ -1,7 +1,7 @@
 /* Mirror: spectral_materials.core.brdf.shading.light_rows */
 /* One texel of a light's row (its header, then its spectral weights: lights.glsl,
  * spectral_basis.glsl). Where a variant's SM_LIGHT_STRIDE is > 0 (the factor-pack
- * shaders, when every row fits a uniform buffer: gpu_material.light_stride), the rows
+ * shaders, when every row fits a uniform buffer: GPUMaterial.light_stride), the rows
  * are read from the uniform buffer `sm_lights`, SM_LIGHT_STRIDE texels each, one after
  * another: a uniform read in place of a texel fetch (issue 19). Otherwise they are the
  * rows of the texture `light_tex` (SM_LIGHT_STRIDE 0). */

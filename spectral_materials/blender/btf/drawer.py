@@ -53,12 +53,15 @@ class BTFShaderKey:
     lights: int
     light_types: frozenset
     output: str = "XYZ"
+    #: Texel-edge blend band (``render.EDGE_BLEND``), in the key so that a variant
+    #: compiled with another band is never served from the cache.
+    edge: float = EDGE_BLEND
 
     def defines(self) -> dict[str, str]:
         return {"SM_BTF_KIND": str(KIND_CODES[self.kind]), "SM_BTF_LOBES": str(self.lobes),
                 **{f"SM_BTF_KIND_{kind}": str(code) for kind, code in KIND_CODES.items()},
                 "SM_BTF_COEFFS": str(self.coefficients),
-                "SM_BTF_EDGE": repr(float(EDGE_BLEND)),
+                "SM_BTF_EDGE": repr(float(self.edge)),
                 "SM_BTF_ALBEDO_RECORDS": str(-(-self.coefficients // 4)),
                 "SM_BTF_LIST_WIDTH": str(HemisphereTriangulation.LIST_WIDTH),
                 "SM_LIGHTS": str(self.lights),
@@ -146,7 +149,8 @@ class BTFMaterial:
     def key(self, lights: list[SpectralLight], output: str = "XYZ") -> BTFShaderKey:
         d = self.drawable
         return BTFShaderKey(d.kind, d.lobes, d.coefficients.shape[2], len(lights),
-                            frozenset(light.kind for light in lights), output)
+                            frozenset(light.kind for light in lights), output,
+                            edge=EDGE_BLEND)    # read now: tests and benchmarks vary it
 
     def light_texture(self, lights: list[SpectralLight], lights_key=None):
         if lights_key is not None and self._light_texture is not None \

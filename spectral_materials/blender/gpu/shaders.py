@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
+from ...core.brdf.shading import LIGHT_HEADER
 from ...core.lights import LIGHT_CODES
 from .outputs import SURFACE_REQUESTS, output_defines
 
@@ -133,6 +134,12 @@ class ShaderKey:
         if self.light_stride and self.lights * self.light_stride > MAX_LIGHT_BUFFER_TEXELS:
             raise ValueError(f"{self.lights} light rows of {self.light_stride} texels exceed the "
                              f"uniform buffer's {MAX_LIGHT_BUFFER_TEXELS}")
+        # A row holds the header and 3 texels per pack (pre-contracted) or one per
+        # coefficient; a shorter stride would read the next light's row.
+        needed = LIGHT_HEADER + (3 * self.packs if self.precontract else self.coefficients)
+        if self.light_stride and self.light_stride < needed:
+            raise ValueError(f"light rows of {self.light_stride} texels are shorter than the "
+                             f"{needed} this variant reads")
 
 
 def glsl_source(name: str) -> str:

@@ -43,7 +43,9 @@ class MaterialJobResult:
     series: list[dict] = field(default_factory=list)   # per pack count: packs, ΔE94, seconds
     plot: np.ndarray | None = None                     # RGBA float32, row 0 at the bottom
     seconds: float = 0.0
-    models: list[FactoredBRDF] = field(default_factory=list)   # per row of ``series``
+    #: Without a target: the model of each row of ``series``. With one: the final model
+    #: only (the earlier rows are the stopping rule's estimates, with no model kept).
+    models: list[FactoredBRDF] = field(default_factory=list)
 
 
 def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions,
