@@ -10,7 +10,20 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks.draw import main
+# main, and the names shared/gpu-replay/export_cases.py reads from this script (it
+# imports it as a module to record the benchmark's draws for a GPU without Blender).
+from benchmarks.draw import (  # noqa: F401
+    DISC_FRACTION,
+    MODES,
+    VIEW_ORIGIN,
+    Bench,
+    main,
+    make_lights,
+    mesh_batches,
+    sphere_arrays,
+    synthetic_model,
+    view_projection,
+)
 
 if __name__ == "__main__":
     sys.exit(main())

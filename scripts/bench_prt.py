@@ -10,7 +10,22 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks.prt import main
+# main, and the names shared/gpu-replay/export_cases.py reads from this script (it
+# imports it as a module to record the benchmark's draws for a GPU without Blender).
+from benchmarks.prt import (  # noqa: F401
+    DEFAULT_WINDOW,
+    FLOOR_SUBDIVISIONS,
+    ILLUMINANTS,
+    MAIN_BANDS,
+    MAIN_BASIS,
+    MAIN_RAYS,
+    RAYS,
+    SIZE,
+    SUBDIVISIONS,
+    FrameBench,
+    build_scene,
+    main,
+)
 
 if __name__ == "__main__":
     sys.exit(main())
