@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -418,12 +417,7 @@ def main(argv: list[str] | None = None) -> None:
                "load_start": harness.load_average(), "commit": harness.commit_of(),
                "date": harness.date_stamp(), "command": harness.command_line("colour_targets")}
     result = {**machine, **run(args.quick)}
-    out = Path(args.out)
-    stem = harness.output_stem("colour_targets", args.quick)
-    harness.write_json(out / f"{stem}.json", result, indent=1, default=float)
-    lines = markdown(result)
-    harness.write_markdown(out / f"{stem}.md", lines)
-    print("\n".join(lines))
+    harness.publish(args.out, "colour_targets", args.quick, result, markdown(result))
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ Usage::
 
 from __future__ import annotations
 
+import contextlib
 import time
 from pathlib import Path
 
@@ -133,6 +134,26 @@ def lit_share(lights: list[SpectralLight]) -> float:
 
 
 # ---------------------------------------------------------------------- timing
+
+
+def sphere_batch():
+    """The benchmark sphere (:func:`sphere_arrays`) as one batch."""
+    (batch,) = mesh_batches.MeshBatches.build(sphere_arrays()).batches.values()
+    return batch
+
+
+@contextlib.contextmanager
+def bench_target(size: int, batch, vp: np.ndarray, frames: int, reps: int):
+    """A :class:`Bench` drawing ``batch`` into a ``size``² target with back faces culled
+    (Blender's default, no culling, restored after)."""
+    import gpu
+
+    with Target(size, size) as target:
+        gpu.state.face_culling_set("BACK")
+        try:
+            yield Bench(target, batch, vp, frames, reps)
+        finally:
+            gpu.state.face_culling_set("NONE")
 
 
 class Bench:
@@ -351,21 +372,13 @@ def run(args) -> dict:
     """Build the sphere, time the sweeps into one target and gather the results."""
     started = time.perf_counter()
     ensure_gpu()
-    import gpu
-
     arrays = sphere_arrays()
-    (batch,) = mesh_batches.MeshBatches.build(arrays).batches.values()
     vp = view_projection(0.5 / DISC_FRACTION)
     info = harness.gpu_machine()
     log(f"machine: {info['renderer']} ({info['backend']}), {info['cpu_count']} cores; "
         f"target {args.size}² px, {args.reps} reps × {args.frames} frames")
-    with Target(args.size, args.size) as target:
-        gpu.state.face_culling_set("BACK")
-        try:
-            bench = Bench(target, batch, vp, args.frames, args.reps)
-            rows, rolled_rows, light_packs = sweep(bench, args.quick)
-        finally:
-            gpu.state.face_culling_set("NONE")
+    with bench_target(args.size, sphere_batch(), vp, args.frames, args.reps) as bench:
+        rows, rolled_rows, light_packs = sweep(bench, args.quick)
     info["load_end"] = harness.load_average()
     return {
         "date": harness.date_stamp(), "command": harness.command_line("draw"),

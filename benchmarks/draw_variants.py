@@ -29,19 +29,18 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
 from spectral_materials.blender.brdf.gpu_material import GPUMaterial
-from spectral_materials.blender.gpu import batches as mesh_batches, shaders
+from spectral_materials.blender.gpu import shaders
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.display import DisplaySettings
 from spectral_materials.blender.gpu.textures import float_texture
 from spectral_materials.core.brdf.shading import light_texels
 
 from . import harness
-from .draw import Bench, make_lights, sphere_arrays, view_projection
+from .draw import Bench, bench_target, make_lights, sphere_batch, view_projection
 from .draw_baseline import VIEW_ORIGIN
 from .synthetic import DISC_FRACTION, synthetic_model
 
@@ -147,24 +146,13 @@ def measure(bench: Bench, comparison: str, packs, n_lights: int, pair=None) -> d
 def run(args) -> dict:
     started = time.perf_counter()
     ensure_gpu()
-    import gpu
-
-    from spectral_materials.blender.gpu.offscreen import Target
-
-    arrays = sphere_arrays()
-    (batch,) = mesh_batches.MeshBatches.build(arrays).batches.values()
-    vp = view_projection(0.5 / DISC_FRACTION)
     info = harness.gpu_machine()
     rows = []
-    with Target(args.size, args.size) as target:
-        gpu.state.face_culling_set("BACK")
-        try:
-            bench = Bench(target, batch, vp, frames=3, reps=args.reps)
-            for comparison, packs, n_lights in CASES:
-                rows.append(measure(bench, comparison, packs, n_lights))
-                _log(rows[-1])
-        finally:
-            gpu.state.face_culling_set("NONE")
+    vp = view_projection(0.5 / DISC_FRACTION)
+    with bench_target(args.size, sphere_batch(), vp, 3, args.reps) as bench:
+        for comparison, packs, n_lights in CASES:
+            rows.append(measure(bench, comparison, packs, n_lights))
+            _log(rows[-1])
     rows += btf_rows(args)
     return {"date": harness.date_stamp(), "command": harness.command_line("draw_variants"),
             "commit": harness.commit_of(), "machine": info, "quick": args.quick,
@@ -180,9 +168,6 @@ def _log(row: dict) -> None:
 
 def btf_rows(args) -> list[dict]:
     """The texel-blend comparison on benchmarks.btf's corduroy fits and UV sphere."""
-    import gpu
-
-    from spectral_materials.blender.gpu.offscreen import Target
     from spectral_materials.core.btf import fit as btf_fit, generate as btf_generate
 
     from .btf import uv_sphere_batch
@@ -192,16 +177,11 @@ def btf_rows(args) -> list[dict]:
     size = 800 if not args.quick else 400
     vp = view_projection(1.0)
     rows = []
-    with Target(size, size) as target:
-        gpu.state.face_culling_set("BACK")
-        try:
-            bench = Bench(target, uv_sphere_batch(), vp, frames=3, reps=args.reps)
-            for comparison, kind, n_lights in BTF_CASES:
-                pair = btf_binders(fits, data, kind, n_lights, vp)
-                rows.append(measure(bench, comparison, kind, n_lights, pair))
-                _log(rows[-1])
-        finally:
-            gpu.state.face_culling_set("NONE")
+    with bench_target(size, uv_sphere_batch(), vp, 3, args.reps) as bench:
+        for comparison, kind, n_lights in BTF_CASES:
+            pair = btf_binders(fits, data, kind, n_lights, vp)
+            rows.append(measure(bench, comparison, kind, n_lights, pair))
+            _log(rows[-1])
     return rows
 
 
@@ -240,11 +220,7 @@ def main(argv: list[str] | None = None) -> None:
     args.size = 400 if args.quick else 1200
     args.reps = 3 if args.quick else 7
     results = run(args)
-    out, stem = Path(args.out), harness.output_stem("draw_variants", args.quick)
-    harness.write_json(out / f"{stem}.json", results, indent=1, default=float)
-    lines = markdown(results)
-    harness.write_markdown(out / f"{stem}.md", lines)
-    print("\n".join(lines))
+    harness.publish(args.out, "draw_variants", args.quick, results, markdown(results))
 
 
 if __name__ == "__main__":

@@ -166,6 +166,16 @@ def write_markdown(path: Path, lines: list[str] | str) -> None:
     path.write_text(lines if isinstance(lines, str) else "\n".join(lines))
 
 
+def publish(out: Path | str, name: str, quick: bool, results: dict, lines: list[str], *,
+            indent: int = 1) -> None:
+    """``bench_<name>[_quick].json`` (the results) and ``.md`` (``lines``) in ``out``, and
+    the Markdown printed: the end of every benchmark that renders its report as lines."""
+    out, stem = Path(out), output_stem(name, quick)
+    write_json(out / f"{stem}.json", results, indent=indent, default=float)
+    write_markdown(out / f"{stem}.md", lines)
+    print("\n".join(lines))
+
+
 def write_outputs(out: Path, stem: str, results: dict, markdown: Callable[[dict, Path], None],
                   *, indent: int = 1, default=None) -> None:
     """``<stem>.json`` (the results) and ``<stem>.md`` (``markdown(results, path)``)."""

@@ -157,12 +157,7 @@ def main(argv: list[str] | None = None) -> None:
     result = {"resolution": list(resolution), "wavelengths": [400, 700, 61], "basis": 8,
               "patch": PATCH, "rd_linear_srgb": rd.tolist(), "timings": timings,
               "defects": brdf.defects, "rows": rows}
-    out = Path(args.out)
-    stem = harness.output_stem("measured", args.quick)
-    harness.write_json(out / f"{stem}.json", result, indent=2, default=float)
-    lines = markdown(result)
-    harness.write_markdown(out / f"{stem}.md", lines)
-    print("\n".join(lines))
+    harness.publish(args.out, "measured", args.quick, result, markdown(result), indent=2)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -29,6 +28,7 @@ from spectral_materials.blender.gpu import shaders
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.offscreen import Target
 from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
+from spectral_materials.core.prt.albedo import packed_layer_count
 
 from . import harness
 from .prt import FLOOR_SUBDIVISIONS, SIZE, SUBDIVISIONS, FrameBench, build_scene
@@ -95,8 +95,8 @@ def run(args) -> dict:
     return {"date": harness.date_stamp(), "command": harness.command_line("prt_packing"),
             "commit": harness.commit_of(), "machine": info, "quick": args.quick,
             "mesh": mesh, "bands": BANDS, "basis": BASIS, "size": SIZE, "frames": FRAMES,
-            "reps": args.reps, "layers": {"packed": -(-3 * BASIS // 4), "control": BASIS},
-            "fetches_per_pixel": {"packed": 4 * -(-3 * BASIS // 4), "control": 4 * BASIS,
+            "reps": args.reps, "layers": {"packed": packed_layer_count(BASIS), "control": BASIS},
+            "fetches_per_pixel": {"packed": 4 * packed_layer_count(BASIS), "control": 4 * BASIS,
                                   "rgb": 4},
             "max_abs_difference": difference,
             "max_value": float(np.abs(images[False]).max()),
@@ -139,11 +139,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     args.reps = 3 if args.quick else 7
     results = run(args)
-    out, stem = Path(args.out), harness.output_stem("prt_packing", args.quick)
-    harness.write_json(out / f"{stem}.json", results, indent=1, default=float)
-    lines = markdown(results)
-    harness.write_markdown(out / f"{stem}.md", lines)
-    print("\n".join(lines))
+    harness.publish(args.out, "prt_packing", args.quick, results, markdown(results))
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ import numpy as np
 from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
 from spectral_materials.core.colour import pipeline as colour_pipeline
 from spectral_materials.core.prt import environment as core_environment, transfer as core_prt
+from spectral_materials.core.prt.albedo import packed_layer_count
 
 from .harness import log
 from .prt_report import DEFAULT_WINDOW, SKIES, WINDOWS
@@ -62,7 +63,7 @@ def texture_bytes(obj, scene, transfer: np.ndarray) -> dict:
     return {"transfer_attributes": int(transfer.size * 4),
             "transfer_texture": int(prt_gpu.transfer_texels(transfer).nbytes),
             "environment_texture": int(prt_gpu.environment_texels(np.zeros((k, m))).nbytes),
-            "albedo_texture": int(-(-3 * m // 4) * h * w * 16),   # albedo.layers_to_rgba
+            "albedo_texture": int(packed_layer_count(m) * h * w * 16),
             "rgb_environment_texture": int(prt_gpu.environment_texels(np.zeros((k, 3))).nbytes),
             "rgb_albedo_texture": int(h * w * 16)}
 

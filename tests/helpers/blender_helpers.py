@@ -23,6 +23,23 @@ def spectral_material(name: str = "Paint", *, model: str = "OREN_NAYAR", patch: 
     return material
 
 
+def cube_material(model, name: str = "Paint", *, node_tree: bool = False):
+    """The start-up cube's only slot gets a material with ``model`` stored as its factors
+    (with a Principled BSDF tree where ``node_tree``)."""
+    from spectral_materials.blender import compat
+    from spectral_materials.blender.brdf import storage
+
+    material = bpy.data.materials.new(name)
+    if node_tree:
+        compat.ensure_node_tree(material)
+    material.spectral.enabled = True
+    mesh = bpy.data.objects["Cube"].data
+    mesh.materials.clear()
+    mesh.materials.append(material)
+    storage.store_factored(material, model)
+    return material
+
+
 def add_sphere(name: str, location=(0.0, 0.0, 0.0)):
     bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8, location=location)
     obj = bpy.context.active_object

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.factored import FactoredBRDF
-from ...core.brdf.shading import LIGHT_HEADER, light_texels
+from ...core.brdf.shading import light_row_texels, light_texels
 from ...core.lights import SpectralLight
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.shaders import MAX_LIGHT_BUFFER_TEXELS, PARAMETERIZATION_CODES, ShaderKey
@@ -85,7 +85,7 @@ class GPUMaterial:
     def light_stride(self, lights: list[SpectralLight], precontract: bool) -> int:
         """Texels per light row when the rows go in the uniform buffer ``sm_lights``
         (glsl/common/light_rows.glsl); 0 when they exceed it and stay in a texture."""
-        width = LIGHT_HEADER + (3 * self.groups if precontract else self.model.spectral_size)
+        width = light_row_texels(self.groups, self.model.spectral_size, precontract)
         return width if len(lights) * width <= MAX_LIGHT_BUFFER_TEXELS else 0
 
     def key(self, lights: list[SpectralLight], *, packs: int | None = None,

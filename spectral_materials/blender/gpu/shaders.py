@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
-from ...core.brdf.shading import LIGHT_HEADER
+from ...core.brdf.shading import light_row_texels
 from ...core.lights import LIGHT_CODES
 from .outputs import SURFACE_REQUESTS, output_defines
 
@@ -136,7 +136,7 @@ class ShaderKey:
                              f"uniform buffer's {MAX_LIGHT_BUFFER_TEXELS}")
         # A row holds the header and 3 texels per pack (pre-contracted) or one per
         # coefficient; a shorter stride would read the next light's row.
-        needed = LIGHT_HEADER + (3 * self.packs if self.precontract else self.coefficients)
+        needed = light_row_texels(self.packs, self.coefficients, self.precontract)
         if self.light_stride and self.light_stride < needed:
             raise ValueError(f"light rows of {self.light_stride} texels are shorter than the "
                              f"{needed} this variant reads")

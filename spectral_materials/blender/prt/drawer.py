@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.prt import transfer as core_prt
-from ...core.prt.albedo import layers_to_rgba
+from ...core.prt.albedo import layers_to_rgba, packed_layer_count
 from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.matrices import set_matrix
@@ -76,7 +76,7 @@ class PRTShaderKey:
     def albedo_layers(self) -> int:
         """Layers of the albedo texture: one RGB layer for RGB PRT, else the 3m values
         packed four to a texel (``albedo.layers_to_rgba``)."""
-        return 1 if self.rgb else -(-3 * self.coefficients // 4)
+        return 1 if self.rgb else packed_layer_count(self.coefficients)
 
     def defines(self) -> dict[str, str]:
         return {"SM_PRT_TEXELS": str(self.texels), "SM_PRT_COEFFS": str(self.coefficients),

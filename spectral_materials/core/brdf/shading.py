@@ -109,6 +109,12 @@ def light_rows(lights: list[SpectralLight], spectral_texels) -> np.ndarray:
     return texels.astype(np.float32)
 
 
+def light_row_texels(packs: int, coefficients: int, precontract: bool) -> int:
+    """Texels in a light row of :func:`light_texels`: the header, then 3 per pack of 4
+    terms (``precontract``) or one per spectral coefficient."""
+    return LIGHT_HEADER + (3 * int(packs) if precontract else int(coefficients))
+
+
 def xyz_texels(weights: np.ndarray) -> np.ndarray:
     """(S, 4): spectral XYZ weights (S, 3), one texel each (xyz, w = 0)."""
     out = np.zeros((len(weights), 4))

@@ -222,14 +222,11 @@ class DrawableBTF:
 
     # ---------------------------------------------------------------- evaluation
     def texel_of(self, uv: np.ndarray, scale=(1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
-        """(row, column) of the nearest texel under repeat wrap, computed in float32 as the
-        shader does: ``floor(fract(uv · scale) · (W, H))``."""
-        h, w = self.texels
-        st = np.asarray(uv, np.float32) * np.asarray(scale, np.float32)
-        f = st - np.floor(st)
-        col = np.clip(np.floor(f[..., 0] * np.float32(w)), 0, w - 1).astype(np.int64)
-        row = np.clip(np.floor(f[..., 1] * np.float32(h)), 0, h - 1).astype(np.int64)
-        return row, col
+        """(row, column) of the nearest texel under repeat wrap, in float32 as the shader
+        computes it: ``floor(fract(uv · scale) · (W, H))``, the first texel of
+        :meth:`texel_blend`."""
+        rows, cols, _ = self.texel_blend(uv, scale)
+        return rows[..., 0], cols[..., 0]
 
     def texel_blend(self, uv: np.ndarray, scale=(1.0, 1.0)
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -346,6 +346,12 @@ def sample_layers(layers: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return out.reshape(uv.shape[:-1] + out.shape[1:])
 
 
+def packed_layer_count(m: int) -> int:
+    """RGBA layers that hold m coefficients' X, Y, Z packed four to a texel: ⌈3m/4⌉
+    (:func:`layers_to_rgba`)."""
+    return -(-3 * int(m) // 4)
+
+
 def layers_to_rgba(layers: np.ndarray) -> np.ndarray:
     """The albedo layers packed four values to a texel: (⌈3m/4⌉, H, W, 4) float32.
 
@@ -364,7 +370,7 @@ def layers_to_rgba(layers: np.ndarray) -> np.ndarray:
     if layers.ndim != 4 or layers.shape[3] != 3 or 0 in layers.shape:
         raise ValueError(f"layers must be (m, H, W, 3), got {layers.shape}")
     m, height, width, _ = layers.shape
-    count = -(-3 * m // 4)
+    count = packed_layer_count(m)
     flat = np.zeros((height, width, 4 * count), dtype=np.float32)
     flat[..., : 3 * m] = layers.transpose(1, 2, 0, 3).reshape(height, width, 3 * m)
     return np.ascontiguousarray(flat.reshape(height, width, count, 4).transpose(2, 0, 1, 3))
@@ -374,7 +380,7 @@ def rgba_to_layers(packed: np.ndarray, m: int) -> np.ndarray:
     """(m, H, W, 3) from :func:`layers_to_rgba`'s (⌈3m/4⌉, H, W, 4)."""
     packed = np.asarray(packed)
     count, height, width, depth = packed.shape
-    if depth != 4 or count != -(-3 * int(m) // 4):
+    if depth != 4 or count != packed_layer_count(m):
         raise ValueError(f"{packed.shape} is not {m} packed layers")
     flat = packed.transpose(1, 2, 0, 3).reshape(height, width, 4 * count)[..., : 3 * m]
     return flat.reshape(height, width, m, 3).transpose(2, 0, 1, 3)

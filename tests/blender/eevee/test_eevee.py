@@ -14,7 +14,7 @@ bpy = pytest.importorskip("bpy")
 
 pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
 
-from blender_helpers import spectral_material
+from blender_helpers import cube_material, spectral_material
 from scipy import ndimage
 
 from spectral_materials.blender import compat
@@ -45,18 +45,6 @@ def iso_model():
     return _model("io_iso", (16, 32, 16))
 
 
-def _cube_material(model):
-    """The start-up cube's material (a Principled BSDF tree) with stored factors."""
-    material = bpy.data.materials.new("Paint")
-    compat.ensure_node_tree(material)
-    material.spectral.enabled = True
-    mesh = bpy.data.objects["Cube"].data
-    mesh.materials.clear()
-    mesh.materials.append(material)
-    storage.store_factored(material, model)
-    return material
-
-
 def _tree_state(material):
     tree = material.node_tree
     return (sorted(n.name for n in tree.nodes),
@@ -65,7 +53,7 @@ def _tree_state(material):
 
 
 def test_apply_then_remove_restores_the_tree_and_the_light(clean_scene, iso_model):
-    material = _cube_material(iso_model)
+    material = cube_material(iso_model, node_tree=True)
     before = _tree_state(material)
     light = bpy.data.objects["Light"]
     counts = eevee.apply_eevee(material, clean_scene)
@@ -85,7 +73,7 @@ def test_apply_then_remove_restores_the_tree_and_the_light(clean_scene, iso_mode
 
 
 def test_an_existing_receiver_collection_is_restored(clean_scene, iso_model):
-    material = _cube_material(iso_model)
+    material = cube_material(iso_model, node_tree=True)
     light = bpy.data.objects["Light"]
     mine = bpy.data.collections.new("Lit by the lamp")
     light.light_linking.receiver_collection = mine
@@ -96,7 +84,7 @@ def test_an_existing_receiver_collection_is_restored(clean_scene, iso_model):
 
 
 def test_two_materials_share_the_key_light_exclusion(clean_scene, iso_model):
-    first = _cube_material(iso_model)
+    first = cube_material(iso_model, node_tree=True)
     bpy.ops.mesh.primitive_uv_sphere_add(location=(3.0, 0.0, 0.0))
     sphere = bpy.context.active_object
     second = bpy.data.materials.new("Other")
@@ -117,7 +105,7 @@ def test_two_materials_share_the_key_light_exclusion(clean_scene, iso_model):
 
 
 def test_light_colours_follow_their_spectra(clean_scene, iso_model):
-    material = _cube_material(iso_model)
+    material = cube_material(iso_model, node_tree=True)
     light = bpy.data.objects["Light"]
     light.data.spectral.illuminant = "A"
     eevee.apply_eevee(material, clean_scene)
@@ -126,7 +114,7 @@ def test_light_colours_follow_their_spectra(clean_scene, iso_model):
 
 
 def test_key_light_is_the_brightest_at_the_objects(clean_scene, iso_model):
-    material = _cube_material(iso_model)
+    material = cube_material(iso_model, node_tree=True)
     far = bpy.data.objects.new("Far", bpy.data.lights.new("Far", "POINT"))
     far.data.energy = 1000.0
     far.location = (100.0, 0.0, 0.0)
@@ -147,11 +135,11 @@ def test_clear_errors(clean_scene, iso_model):
     gs = storage.as_stored(factor.factor_brdf(models.make_model("lambert"),
                                               parameterization="gs", resolution=(4, 4, 4, 4),
                                               packs=1, spectral_basis=3))
-    material = _cube_material(gs)
+    material = cube_material(gs, node_tree=True)
     with pytest.raises(ValueError, match="supports the io, io_iso"):
         eevee.apply_eevee(material, clean_scene)
     assert eevee.applied(material) is None
-    material = _cube_material(iso_model)
+    material = cube_material(iso_model, node_tree=True)
     bpy.data.objects.remove(bpy.data.objects["Light"])
     with pytest.raises(eevee.EEVEEError, match="needs a key light"):
         eevee.apply_eevee(material, clean_scene)
@@ -159,7 +147,7 @@ def test_clear_errors(clean_scene, iso_model):
 
 def test_over_the_uniform_block_limit_is_refused_and_nothing_changes(clean_scene, iso_model,
                                                                      monkeypatch):
-    material = _cube_material(iso_model)
+    material = cube_material(iso_model, node_tree=True)
     counts = eevee.apply_eevee(material, clean_scene)
     before = (_tree_state(material), eevee.applied(material))
     # The driver's 64 KiB is reached at ~38 packs (docs/bench_eevee.md); a lower limit
@@ -188,7 +176,7 @@ def test_uniform_block_prediction_matches_the_measured_limit(clean_scene):
     """hd at 38 packs linked and at 39 did not (65 552 B), on this machine's Mesa."""
     counts = {}
     for packs in (1, 2):
-        material = _cube_material(storage.as_stored(_synthetic_hd(packs)))
+        material = cube_material(storage.as_stored(_synthetic_hd(packs)), node_tree=True)
         counts[packs] = eevee.apply_eevee(material, clean_scene)["uniform_bytes"]
     per_pack = counts[2] - counts[1]
     predicted_39 = counts[1] + 38 * per_pack

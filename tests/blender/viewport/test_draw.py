@@ -14,6 +14,8 @@ bpy = pytest.importorskip("bpy")
 
 pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
 
+from blender_helpers import cube_material
+
 from spectral_materials.blender.brdf import storage
 from spectral_materials.blender.gpu import batches as mesh_batches, shaders
 from spectral_materials.blender.lights import scene_lights
@@ -144,17 +146,6 @@ def test_the_view_axes_are_shared_by_at_most_eight_lights():
         "SM_VIEW_AXES"] == "0"
 
 
-def _paint_cube(model, name="Paint"):
-    """The start-up cube's only slot gets a factored material."""
-    material = bpy.data.materials.new(name)
-    material.spectral.enabled = True
-    mesh = bpy.data.objects["Cube"].data
-    mesh.materials.clear()
-    mesh.materials.append(material)
-    storage.store_factored(material, model)
-    return material
-
-
 def _track(direction):
     from mathutils import Vector
 
@@ -168,7 +159,7 @@ def test_degenerate_faces_and_zero_normals_stay_finite(clean_scene, glossy_model
     for index in mesh.polygons[0].vertices:
         mesh.vertices[index].co = (1.0, 1.0, 1.0)
     mesh.update()
-    _paint_cube(glossy_model)
+    cube_material(glossy_model)
     image, stats = draw.render_camera(clean_scene, width=64, height=48)
     assert stats.objects == ["Cube"]
     assert np.isfinite(image).all()
@@ -176,7 +167,7 @@ def test_degenerate_faces_and_zero_normals_stay_finite(clean_scene, glossy_model
 
 def test_batches_rebuilt_only_when_geometry_changes(clean_scene, glossy_model):
     obj = bpy.data.objects["Cube"]
-    _paint_cube(glossy_model)
+    cube_material(glossy_model)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     first = mesh_batches.object_batches(obj, depsgraph)
     obj.location.x += 0.5                       # a transform is not geometry
@@ -191,7 +182,7 @@ def test_batches_rebuilt_only_when_geometry_changes(clean_scene, glossy_model):
 
 
 def test_variants_cached_and_rebuilt_when_lights_change(clean_scene, glossy_model):
-    _paint_cube(glossy_model)
+    cube_material(glossy_model)
     draw.render_camera(clean_scene, width=32, height=24)
     before = set(shaders.cached_variants())
     draw.render_camera(clean_scene, width=32, height=24)
@@ -206,7 +197,7 @@ def test_variants_cached_and_rebuilt_when_lights_change(clean_scene, glossy_mode
 
 
 def test_only_what_the_scene_needs_is_compiled(clean_scene, glossy_model):
-    _paint_cube(glossy_model)
+    cube_material(glossy_model)
     _, stats = draw.render_camera(clean_scene, width=32, height=24)
     (key,) = stats.variants
     defines = key.defines()
@@ -217,7 +208,7 @@ def test_only_what_the_scene_needs_is_compiled(clean_scene, glossy_model):
 
 
 def test_spectral_power_scales_the_light(clean_scene, glossy_model):
-    _paint_cube(glossy_model)
+    cube_material(glossy_model)
     once, _ = draw.render_camera(clean_scene, width=32, height=24)
     bpy.data.objects["Light"].data.spectral.power = 2.5
     scaled, _ = draw.render_camera(clean_scene, width=32, height=24)
@@ -272,7 +263,7 @@ def test_viewport_handler_life_cycle(clean_scene):
 
 
 def test_render_spectral_script_writes_exr_and_png(clean_scene, glossy_model, tmp_path):
-    _paint_cube(glossy_model)
+    cube_material(glossy_model)
     blend = tmp_path / "scene.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
     stem = tmp_path / "frame"
