@@ -125,7 +125,7 @@ def axis_lookup(
     if edge not in EDGE_RULES:
         raise ValueError(f"edge must be one of {EDGE_RULES}, got {edge!r}")
     n = int(n)
-    x = _cell_x(axis, n, values)
+    x = cell_x(axis, n, values)
     if n == 1:
         zeros = np.zeros(x.shape, dtype=np.int64)
         return zeros, zeros.copy(), np.zeros(x.shape, dtype=np.float64)
@@ -153,13 +153,13 @@ def horizon_scale(axis: Axis, n: int, values: np.ndarray) -> np.ndarray:
     :func:`axis_lookup`; +inf as ``hi`` (scale 0).
     """
     n = int(n)
-    x = _cell_x(axis, n, values)
+    x = cell_x(axis, n, values)
     if not axis.horizon:
         return np.ones(x.shape, dtype=np.float64)
     return np.clip(2.0 * (n - 0.5 - x), 0.0, 1.0)
 
 
-def _cell_x(axis: Axis, n: int, values: np.ndarray) -> np.ndarray:
+def cell_x(axis: Axis, n: int, values: np.ndarray) -> np.ndarray:
     """x = u·n − 0.5 (u the warped unit coordinate): cell centres at integers, as the
     GLSL's ``sm_axis_x``. NaN counts as ``lo``, ±inf as ``hi``/``lo``."""
     if n < 1:

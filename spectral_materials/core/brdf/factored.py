@@ -84,21 +84,25 @@ class FactoredBRDF:
         wi, wo = check_direction_pairs(wi, wo)
         grid = self.grid
         coords = grid.parameterization.forward(wi, wo)
-        lookups = grid.lookup(coords, self.edge)
         scale = grid.edge_scale(coords, self.edge)
         if self.form == "cp":
-            prod = np.ones((wi.shape[0], self.terms))
-            for (i0, i1, w), f in zip(lookups, self.factors):
-                f = f.astype(np.float64)
-                prod *= (1.0 - w)[:, None] * f[i0] + w[:, None] * f[i1]
-            out = _contract(prod, self.spectral)
+            out = _contract(self._angular_terms(coords), self.spectral)
         else:
-            out = self._separable_coefficients(lookups)
+            out = self._separable_coefficients(grid.lookup(coords, self.edge))
         if scale is not None:
             out *= scale[:, None]
         lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         out[~lit] = 0.0
         return out
+
+    def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
+        """(N, R): per term, the product over the axes of each factor interpolated at
+        ``coords`` (``half_filtered.HalfFilteredBRDF`` looks up its GPU texture instead)."""
+        prod = np.ones((coords.shape[0], self.terms))
+        for (i0, i1, w), f in zip(self.grid.lookup(coords, self.edge), self.factors):
+            f = f.astype(np.float64)
+            prod *= (1.0 - w)[:, None] * f[i0] + w[:, None] * f[i1]
+        return prod
 
     def _separable_coefficients(self, lookups: list[tuple]) -> np.ndarray:
         rows, cols = self.split

@@ -1,0 +1,180 @@
+"""The fast draw path's factor texture, and its float64 mirror: 16-bit texels, hardware filter.
+
+The exact path (glsl/brdf/factor_packs.glsl) reads float32 factors with two
+``texelFetch`` per axis and pack, and interpolates in the shader. The fast paths let
+the texture unit interpolate a 16-bit texture: one fetch of 8 bytes instead of two
+of 16. On an H100 this cost 0.41× per pack (issue 19's patched replays, RGBA16F).
+Two encodings:
+
+- ``"half"``: RGBA16F, 11-bit significand, relative precision everywhere.
+- ``"unorm16"``: RGBA16 holding (a + 1)/2, so steps of 2/65535 of the
+  column's peak. A CP model's terms can cancel (sums 60–90× smaller than their
+  parts near grazing in a 4-pack Oren–Nayar). There, half's relative error
+  grows to ΔE94 0.6 while unorm16's stays below 0.02 (``benchmarks/draw_variants.py``).
+
+Rules that keep either equal to the exact path to its precision:
+
+- **Padding texels carry the edge rule.** Each axis row gets one texel before its
+  first cell and one after its last. A periodic axis wraps (the pad is the other
+  end's cell). A linear end extrapolates (pad = 2A₀ − A₁, so the filter between pad
+  and A₀ continues the line to the axis end). A held end repeats its cell. This
+  covers ``axes.EDGE_RULES``; the horizon rule's scale stays ALU. The lookup
+  coordinate is x + 1 (x from ``axes.cell_x``). It never leaves [0.5, n + 0.5],
+  so the filter reads no texel outside the row.
+- **Balanced columns.** Each term's padded rows are scaled by a power of two to a
+  peak |a| ∈ (0.5, 1], and the scales go into the spectral factor. The float32 light
+  rows (K = Sᵀ Ĩ) carry them, so glossy factors fit both encodings.
+- **Filter weights.** Hardware filters round the weight to 8 fractional bits
+  (CUDA C Programming Guide, "Texture Fetching, Linear Filtering": "α … stored in
+  9-bit fixed point format with 8 bits of fractional value"). ``weight_bits``
+  models that; ``None`` models a filter with float weights, as llvmpipe's is.
+
+:class:`FilteredFactorsBRDF` is a :class:`FactoredBRDF` whose lookups are those of
+the texture, so ``shading.shade_xyz`` and ``shading.light_texels`` mirror the fast
+path unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .axes import cell_x
+from .factored import FactoredBRDF
+
+#: How the draw path stores and interpolates factors: ``"exact"`` float32 rows, two
+#: fetches and a mix in the shader; ``"unorm16"`` the same on this module's 16-bit
+#: padded rows; ``"<encoding>_filtered"`` one fetch, the texture unit interpolating.
+FACTOR_PRECISIONS = ("exact", "unorm16", "unorm16_filtered", "half_filtered")
+#: Per precision other than exact: (encoding, hardware filtered).
+PRECISION_TEXELS = {"unorm16": ("unorm16", False), "unorm16_filtered": ("unorm16", True),
+                    "half_filtered": ("half", True)}
+#: The 16-bit encodings and their GPU texture formats.
+TEXTURE_FORMATS = {"half": "RGBA16F", "unorm16": "RGBA16"}
+#: Fractional bits of a hardware filter's weight (NVIDIA, AMD; see the module doc).
+HARDWARE_WEIGHT_BITS = 8
+#: Texels a row gains: one pad at each end.
+PAD = 1
+_UNORM_MAX = 65535.0
+
+
+def edge_pads(table: np.ndarray, periodic: bool, low: str, high: str) -> np.ndarray:
+    """``table`` (n, R) with a pad row before and after: wrapped (``periodic``), or per
+    end ``"linear"`` (2A₀ − A₁) or ``"clamp"`` (A₀)."""
+    table = np.asarray(table, dtype=np.float64)
+    if periodic or len(table) == 1:
+        before, after = (table[-1], table[0]) if periodic else (table[0], table[0])
+    else:
+        before = 2.0 * table[0] - table[1] if low == "linear" else table[0]
+        after = 2.0 * table[-1] - table[-2] if high == "linear" else table[-1]
+    return np.concatenate([before[None], table, after[None]])
+
+
+def end_rules(edge: str, horizon: bool) -> tuple[str, str]:
+    """(low end, high end) of a non-periodic axis under ``edge``, as ``axes.axis_lookup``."""
+    if edge == "clamp":
+        return "clamp", "clamp"
+    if edge == "horizon" and horizon:
+        return "linear", "clamp"
+    return "linear", "linear"
+
+
+def quantize(values: np.ndarray, encoding: str) -> np.ndarray:
+    """``values`` (|v| ≤ 1) as the texture returns them after decoding, in float64."""
+    values = np.asarray(values, dtype=np.float64)
+    if encoding == "half":
+        return values.astype(np.float16).astype(np.float64)
+    if encoding == "unorm16":
+        return encode_unorm16(values) * 2.0 - 1.0
+    raise ValueError(f"encoding must be one of {tuple(TEXTURE_FORMATS)}, got {encoding!r}")
+
+
+def encode_unorm16(values: np.ndarray) -> np.ndarray:
+    """The unorm16 texel values k/65535 of (v + 1)/2; the GPU returns exactly these."""
+    return np.round((np.asarray(values, dtype=np.float64) + 1.0) * 0.5 * _UNORM_MAX) / _UNORM_MAX
+
+
+@dataclass
+class FilteredFactorsBRDF(FactoredBRDF):
+    """A CP model as a fast path draws it (module doc): ``padded[k]`` is axis k's row
+    with its pads, (n_k + 2, R), decoded; ``weight_bits`` the filter's."""
+
+    padded: list[np.ndarray] = field(default_factory=list)
+    encoding: str = "half"
+    weight_bits: int | None = HARDWARE_WEIGHT_BITS
+
+    def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
+        prod = np.ones((coords.shape[0], self.terms))
+        for k, (axis, n) in enumerate(zip(self.grid.parameterization.axes, self.grid.shape)):
+            p = cell_x(axis, n, coords[:, k]) + PAD
+            i = np.clip(np.floor(p), 0, n).astype(np.int64)
+            w = p - i
+            if self.weight_bits is not None:
+                steps = float(1 << int(self.weight_bits))
+                w = np.floor(w * steps + 0.5) / steps
+            table = self.padded[k]
+            prod *= (1.0 - w)[:, None] * table[i] + w[:, None] * table[i + 1]
+        return prod
+
+    @property
+    def texture_format(self) -> str:
+        return TEXTURE_FORMATS[self.encoding]
+
+    def texels(self) -> np.ndarray:
+        """The texture's texels (axes · G, max n + 2, 4) float32, as uploaded: decoded
+        values for ``"half"`` (exact in half), (a + 1)/2 for ``"unorm16"``. Texel
+        (p, k·G + g) holds terms 4g … 4g+3 of axis k's padded row at p."""
+        groups = -(-self.terms // 4)
+        width = max(len(t) for t in self.padded)
+        out = np.zeros((len(self.padded) * groups, width, 4), dtype=np.float32)
+        if self.encoding == "unorm16":
+            out[:] = encode_unorm16(np.zeros(1))[0]        # the step nearest 0
+        for k, table in enumerate(self.padded):
+            padded = np.zeros((len(table), groups * 4))
+            padded[:, : self.terms] = table
+            if self.encoding == "unorm16":
+                padded = encode_unorm16(padded)
+            out[k * groups:(k + 1) * groups, : len(table)] = \
+                padded.reshape(len(table), groups, 4).transpose(1, 0, 2)
+        return out
+
+
+def filtered_factors(model: FactoredBRDF, encoding: str = "half",
+                     weight_bits: int | None = HARDWARE_WEIGHT_BITS) -> FilteredFactorsBRDF:
+    """``model`` as the fast path with ``encoding`` draws it: padded, balanced, quantised."""
+    if model.form != "cp":
+        raise ValueError("the fast draw path draws CP factor packs only")
+    if encoding not in TEXTURE_FORMATS:
+        raise ValueError(f"encoding must be one of {tuple(TEXTURE_FORMATS)}, got {encoding!r}")
+    if weight_bits is not None and not 1 <= int(weight_bits) <= 23:
+        raise ValueError(f"weight_bits must be 1..23 or None, got {weight_bits!r}")
+    spectral = np.asarray(model.spectral, dtype=np.float64).copy()
+    padded = []
+    for axis, table in zip(model.grid.parameterization.axes, model.factors):
+        rows = edge_pads(table, axis.periodic, *end_rules(model.edge, axis.horizon))
+        peak = np.abs(rows).max(axis=0)
+        if not np.isfinite(peak).all():
+            raise ValueError("a factor is not finite")
+        # A power of two: the rescaling itself is exact.
+        scale = np.exp2(np.ceil(np.log2(np.where(peak > 0, peak, 1.0))))
+        padded.append(quantize(rows / scale, encoding))
+        spectral *= scale
+    fields = {name: getattr(model, name) for name in FactoredBRDF.__dataclass_fields__}
+    fields.update(factors=[rows[PAD:-PAD] for rows in padded], spectral=spectral)
+    return FilteredFactorsBRDF(**fields, padded=padded, encoding=encoding,
+                               weight_bits=weight_bits)
+
+
+
+def drawn_model(model: FactoredBRDF, precision: str) -> FactoredBRDF:
+    """What the draw path with ``precision`` (``FACTOR_PRECISIONS``) evaluates: ``model``
+    itself when exact; else its 16-bit rows with shader weights (float) or the
+    texture unit's (8-bit)."""
+    if precision == "exact":
+        return model
+    if precision not in PRECISION_TEXELS:
+        raise ValueError(f"factor precision must be one of {FACTOR_PRECISIONS}, "
+                         f"got {precision!r}")
+    encoding, filtered = PRECISION_TEXELS[precision]
+    return filtered_factors(model, encoding, HARDWARE_WEIGHT_BITS if filtered else None)
