@@ -26,15 +26,21 @@ float sm_axis_x(float v, float lo, float span, int flags, int cells)
   return t * float(cells) - 0.5;
 }
 
-/* scale: axes.horizon_scale's value, from the same x (1 unless the rule is horizon). */
+/* axes.horizon_scale's value at x (1 unless the rule is horizon and the axis θi). */
+float sm_horizon_scale(float x, int flags, int cells, int edge)
+{
+  if (edge == SM_EDGE_HORIZON && (flags & 4) != 0) {
+    return clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
+  }
+  return 1.0;
+}
+
+/* scale: sm_horizon_scale's value, from the same x. */
 void sm_axis_lookup(float v, float lo, float span, int flags, int cells, int edge,
                     out int i0, out int i1, out float w, out float scale)
 {
-  scale = 1.0;
   float x = sm_axis_x(v, lo, span, flags, cells);
-  if (edge == SM_EDGE_HORIZON && (flags & 4) != 0) {
-    scale = clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
-  }
+  scale = sm_horizon_scale(x, flags, cells, edge);
   if (cells <= 1) {
     i0 = 0;
     i1 = 0;

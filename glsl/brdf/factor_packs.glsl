@@ -1,12 +1,17 @@
-/* Mirror: spectral_materials.core.brdf.factored.FactoredBRDF.coefficients */
+/* Mirror: spectral_materials.core.brdf.factored.FactoredBRDF.coefficients, spectral_materials.core.brdf.filtered_factors.FilteredFactorsBRDF._angular_terms */
 /* Factor-pack reconstruction: per pack of 4 rank-one terms, the product over the
  * angular axes of each factor interpolated at the pixel's coordinates.
- * Mirrors FactoredBRDF.coefficients (spectral_materials/core/brdf/factored.py).
  *
- * factor_tex is the material's factor image (blender/brdf/storage.py): texel (x, k·G + g)
- * holds terms 4g … 4g+3 of axis k at sample x, with G = sm.misc.y texel rows per axis.
- * Texels are read with texelFetch and interpolated here, exactly as the Python
- * lookup does (a hardware filter would round its weights to 8 bits). */
+ * factor_tex holds per axis k and texel row g (G = sm.misc.y rows per axis) terms
+ * 4g … 4g+3 at each sample; SM_FACTORS says how (codes generated from
+ * filtered_factors.FACTOR_PRECISIONS):
+ * - SM_FACTORS_EXACT: the material's float32 factor image (blender/brdf/storage.py),
+ *   read with texelFetch and interpolated here with the edge rule, as
+ *   FactoredBRDF.coefficients does (a hardware filter would round its weights to 8 bits).
+ * - otherwise 16-bit rows with one pad texel at each end that carries the edge rule
+ *   (filtered_factors.py), so the lookup is at p = x + 1 with no end cases;
+ *   SM_FACTORS_FILTERED lets the texture unit interpolate (one fetch),
+ *   SM_FACTORS_UNORM decodes unorm16's (a + 1)/2 after interpolating (linear, so exact). */
 
 struct SmLookup {
   ivec4 i0;
@@ -25,8 +30,25 @@ SmLookup sm_lookups(vec4 coords)
   for (int k = 0; k < SM_AXES; k++) {
     int i0, i1;
     float w, scale;
+#if SM_FACTORS == SM_FACTORS_EXACT
     sm_axis_lookup(coords[k], sm.axis_lo[k], sm.axis_span[k], sm.axis_flags[k], sm.axis_cells[k],
                    sm.misc.x, i0, i1, w, scale);
+#else
+    float x = sm_axis_x(coords[k], sm.axis_lo[k], sm.axis_span[k], sm.axis_flags[k],
+                        sm.axis_cells[k]);
+    scale = sm_horizon_scale(x, sm.axis_flags[k], sm.axis_cells[k], sm.misc.x);
+    float p = x + 1.0;
+#  if SM_FACTORS_FILTERED
+    /* w holds the texture coordinate: texel centres at (p + 0.5) / width. */
+    i0 = 0;
+    i1 = 0;
+    w = (p + 0.5) / float(textureSize(factor_tex, 0).x);
+#  else
+    i0 = clamp(int(floor(p)), 0, sm.axis_cells[k]);
+    i1 = i0 + 1;
+    w = p - float(i0);
+#  endif
+#endif
     lookup.i0[k] = i0;
     lookup.i1[k] = i1;
     lookup.w[k] = w;
@@ -44,9 +66,18 @@ vec4 sm_pack_product_axes(SmLookup lookup, int pack, int axes)
   for (int k = 0; k < SM_AXES; k++) {
     if ((axes & (1 << k)) != 0) {
       int row = k * sm.misc.y + pack;
+#if SM_FACTORS_FILTERED
+      vec4 value = texture(factor_tex,
+                           vec2(lookup.w[k], (float(row) + 0.5) / float(textureSize(factor_tex, 0).y)));
+#else
       vec4 a = texelFetch(factor_tex, ivec2(lookup.i0[k], row), 0);
       vec4 b = texelFetch(factor_tex, ivec2(lookup.i1[k], row), 0);
-      product *= mix(a, b, lookup.w[k]);
+      vec4 value = mix(a, b, lookup.w[k]);
+#endif
+#if SM_FACTORS_UNORM
+      value = value * 2.0 - 1.0;
+#endif
+      product *= value;
     }
   }
   return product;

@@ -24,7 +24,12 @@ def _material_key(material) -> tuple | None:
     if not material.spectral.enabled or result.image is None:
         return None
     return (result.image.name, result.input_hash, result.terms, result.spectral_size,
-            result.image.size[0], result.image.size[1])
+            result.image.size[0], result.image.size[1], draw_precision(material))
+
+
+def draw_precision(material) -> str:
+    """The material's factor precision (``filtered_factors.FACTOR_PRECISIONS``)."""
+    return material.spectral.draw_precision.lower()
 
 
 def gpu_material(material) -> GPUMaterial | None:
@@ -38,7 +43,7 @@ def gpu_material(material) -> GPUMaterial | None:
     if FAILED.get(material.name, (None,))[0] == key:
         return None
     try:
-        resource = GPUMaterial(storage.load_factored(material))
+        resource = GPUMaterial(storage.load_factored(material), draw_precision(material))
     except ValueError as exc:
         FAILED[material.name] = (key, str(exc))
         print(f"Spectral Materials: not drawing '{material.name}': {exc}")

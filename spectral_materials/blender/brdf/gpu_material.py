@@ -1,10 +1,11 @@
 """What a shader variant needs to draw one factored material: textures and uniforms.
 
-The factor texture is the material's factor image as stored (``storage.pack_pixels``:
-one RGBA texel per sample and pack of 4 terms), uploaded as RGBA32F. Float32 is
-required there and in the light texture: factors of glossy lobes exceed half
-float's 65504 and its 11-bit mantissa would cost ~1e-3 relative error per
-factor, compounded over 4 axes and 48 packs. The light texture comes from
+With the exact factors (the default), the factor texture is the material's factor
+image as stored (``storage.pack_pixels``: one RGBA texel per sample and pack of 4
+terms), uploaded as RGBA32F. The other precisions
+(``core.brdf.filtered_factors.FACTOR_PRECISIONS``) upload 16-bit padded rows whose
+columns are balanced into the spectral factor, so the light rows are built from that
+balanced model (``drawn_model``). The light rows come from
 ``core.brdf.shading.light_texels``; ``gpu.textures`` uploads both.
 """
 
@@ -16,12 +17,13 @@ import numpy as np
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.factored import FactoredBRDF
+from ...core.brdf.filtered_factors import drawn_model
 from ...core.brdf.shading import light_row_texels, light_texels
 from ...core.lights import SpectralLight
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.shaders import MAX_LIGHT_BUFFER_TEXELS, PARAMETERIZATION_CODES, ShaderKey
 from ..gpu.std140 import glsl_block
-from ..gpu.textures import array_texture, float_texture
+from ..gpu.textures import array_texture, float_texture, sixteen_bit_texture
 from . import storage
 
 # Served from here too (they lived here before the display uniforms and the textures
@@ -67,15 +69,26 @@ def check_drawable(model: FactoredBRDF) -> None:
 
 
 class GPUMaterial:
-    """A model's factor texture and uniforms, and light textures per light set."""
+    """A model's factor texture and uniforms, and light textures per light set.
 
-    def __init__(self, model: FactoredBRDF):
+    ``precision`` (``filtered_factors.FACTOR_PRECISIONS``) says how the factors are
+    stored and read; ``model`` is then what the GPU evaluates (``drawn_model``), the
+    float64 mirror of its pixels, and ``source`` the model given."""
+
+    def __init__(self, model: FactoredBRDF, precision: str = "exact"):
         check_drawable(model)
-        self.model = model
+        self.source = model
+        self.precision = precision
+        self.model = drawn_model(model, precision)
         self.uniforms = MaterialUniforms.of(model)
-        pixels = storage.pack_pixels(model)
-        self.factor_texture = float_texture(pixels)
-        self.nbytes = int(pixels.nbytes)
+        if precision == "exact":
+            pixels = storage.pack_pixels(model)
+            self.factor_texture = float_texture(pixels)
+            self.nbytes = int(pixels.nbytes)
+        else:
+            texels = self.model.texels()
+            self.factor_texture = sixteen_bit_texture(texels, self.model.texture_format)
+            self.nbytes = int(texels.size * 2)
         self._light_textures: dict = {}
 
     @property
@@ -100,7 +113,8 @@ class GPUMaterial:
                          light_types=frozenset(light.kind for light in lights),
                          cosine_weighted=bool(model.cosine_weighted), precontract=precontract,
                          output=output, sphere=sphere,
-                         light_stride=self.light_stride(lights, precontract))
+                         light_stride=self.light_stride(lights, precontract),
+                         factors=self.precision)
 
     def light_texture(self, lights: list[SpectralLight], precontract: bool, lights_key=None):
         """The light rows for ``lights``, cached under ``lights_key`` when given: a uniform

@@ -106,6 +106,7 @@ class SPECTRAL_PT_material_result(bpy.types.Panel):
         grid.label(text=f"{r.seconds:.2f} s")
         grid.label(text="Size")
         grid.label(text=f"{r.nbytes / 1024:.1f} KiB")
+        layout.prop(material.spectral, "draw_precision")
         draw_image(layout, r.plot, 8.0)
         layout.label(text="ΔE94 (D65, protocol pairs) against packs; dashed: target")
         for section in RESULT_SECTIONS:

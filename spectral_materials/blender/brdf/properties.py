@@ -18,6 +18,7 @@ from bpy.props import (
     StringProperty,
 )
 
+from ...core.brdf.filtered_factors import FACTOR_PRECISIONS
 from ...core.brdf.params import PARAMETERIZATIONS
 from ..ui.spectrum import SPECTRAL_PG_spectrum
 
@@ -84,6 +85,29 @@ class SPECTRAL_PG_result(bpy.types.PropertyGroup):
                                                            "(JSON)")
 
 
+#: The viewport's factor precisions (core/brdf/filtered_factors.py); descriptions quote
+#: docs/bench_factor_precision.md.
+DRAW_PRECISION_TEXT = {
+    "exact": ("Exact", "Float32 factors interpolated in the shader: the reference path"),
+    "unorm16": ("16-bit", "16-bit factors interpolated in the shader: half the bytes per "
+                          "fetch, ΔE94 against exact ≤ 0.03 on most materials"),
+    "unorm16_filtered": ("16-bit, filtered", "16-bit factors filtered by the texture unit: "
+                         "one fetch per axis; its 8-bit weights cost up to ΔE94 ~1 at "
+                         "glossy peaks"),
+    "half_filtered": ("Half float, filtered", "Half-float factors filtered by the texture "
+                      "unit; relative precision, but terms that cancel near grazing "
+                      "lose more than with 16-bit"),
+}
+DRAW_PRECISION_ITEMS = [(p.upper(), *DRAW_PRECISION_TEXT[p]) for p in FACTOR_PRECISIONS]
+
+
+def _redraw_viewports(self, context) -> None:
+    for window in getattr(context.window_manager, "windows", []):
+        for area in window.screen.areas:
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+
+
 class SPECTRAL_PG_material(bpy.types.PropertyGroup):
     """A material's spectral BRDF source, factorisation settings and stored result."""
 
@@ -138,6 +162,11 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
                            description="Rank-one terms per pack; 4 fill one RGBA texel")
     smoothing: IntProperty(name="Smoothing", default=0, soft_min=0, soft_max=9,
                            description="Moving-average width on the angular factors; 0 = off")
+    draw_precision: EnumProperty(
+        name="Factor precision", items=DRAW_PRECISION_ITEMS, default="EXACT",
+        update=_redraw_viewports,
+        description="How the spectral viewport stores and interpolates this material's "
+                    "factors (the stored factors are not changed)")
     result: PointerProperty(type=SPECTRAL_PG_result, name="Result",
                             description="Stored factors and their measured figures")
 

@@ -19,12 +19,13 @@ def render_sphere(model: FactoredBRDF, incidence_deg: float = 0.0,
                   illuminant: str | np.ndarray = "D65", size: int = 256, *,
                   lights: list[SpectralLight] | None = None, output: str = "XYZ",
                   packs: int | None = None, precontract: bool = True,
-                  display: DisplaySettings | None = None) -> np.ndarray:
+                  display: DisplaySettings | None = None, factors: str = "exact") -> np.ndarray:
     """The protocol sphere drawn on the GPU: (size, size, 4) float32, row 0 at the bottom.
 
     XYZ output is linear CIE XYZ, protocol-normalised; alpha is 1 on the sphere and 0
     off it. ``lights`` replaces the protocol's sun at ``incidence_deg``. ``packs`` draws
-    the model's first packs (``FactoredBRDF.truncated``).
+    the model's first packs (``FactoredBRDF.truncated``). ``factors`` is the factor
+    precision (``filtered_factors.FACTOR_PRECISIONS``).
     """
     from gpu_extras.batch import batch_for_shader
 
@@ -32,7 +33,7 @@ def render_sphere(model: FactoredBRDF, incidence_deg: float = 0.0,
         lights = [protocol_sun(incidence_deg, illuminant, model.wavelengths)]
     if packs is not None:
         model = model.truncated(packs)
-    material = GPUMaterial(model)
+    material = GPUMaterial(model, factors)
     shader = get_shader(material.key(lights, precontract=precontract, output=output,
                                      sphere=True))
     batch = batch_for_shader(shader, "TRI_STRIP", {"corner": _QUAD})

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...core.brdf.axes import EDGE_RULES
+from ...core.brdf.filtered_factors import FACTOR_PRECISIONS, PRECISION_TEXELS
 from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
 from ...core.brdf.shading import light_row_texels
 from ...core.lights import LIGHT_CODES
@@ -62,6 +63,21 @@ def edge_defines() -> dict[str, str]:
     return {f"SM_EDGE_{rule.upper()}": str(code) for code, rule in enumerate(EDGE_RULES)}
 
 
+def factor_defines(precision: str) -> dict[str, str]:
+    """``SM_FACTORS`` (the index of ``precision`` in ``FACTOR_PRECISIONS``), a
+    ``SM_FACTORS_<NAME>`` code per precision, and whether the texture unit filters
+    (``SM_FACTORS_FILTERED``) and unorm16 decodes (``SM_FACTORS_UNORM``):
+    glsl/brdf/factor_packs.glsl."""
+    encoding, filtered = PRECISION_TEXELS.get(precision, ("float32", False))
+    return {
+        **{f"SM_FACTORS_{name.upper()}": str(code)
+           for code, name in enumerate(FACTOR_PRECISIONS)},
+        "SM_FACTORS": str(FACTOR_PRECISIONS.index(precision)),
+        "SM_FACTORS_FILTERED": "1" if filtered else "0",
+        "SM_FACTORS_UNORM": "1" if encoding == "unorm16" else "0",
+    }
+
+
 def view_axes_mask(name: str) -> int:
     """``SM_VIEW_AXES``: bit k set where axis k of the parameterisation depends on the
     view alone (``Parameterization.view_axes``)."""
@@ -98,6 +114,8 @@ class ShaderKey:
     sphere: bool = False
     #: Texels per light row in the uniform buffer ``sm_lights``; 0: rows in ``light_tex``.
     light_stride: int = 0
+    #: How the factor texture is read (``filtered_factors.FACTOR_PRECISIONS``).
+    factors: str = "exact"
 
     def defines(self) -> dict[str, str]:
         out = {
@@ -114,12 +132,16 @@ class ShaderKey:
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             **output_defines(SURFACE_REQUESTS[self.output]),
+            **factor_defines(self.factors),
         }
         if self.sphere:
             out["SM_GEOMETRY_SPHERE"] = "1"
         return out
 
     def validate(self) -> None:
+        if self.factors not in FACTOR_PRECISIONS:
+            raise ValueError(f"factor precision must be one of {FACTOR_PRECISIONS}, "
+                             f"got {self.factors!r}")
         if self.parameterization not in PARAMETERIZATION_CODES:
             raise ValueError(f"no shader for parameterisation {self.parameterization!r}")
         if not 1 <= self.axes <= 4:

@@ -29,3 +29,22 @@ def array_texture(layers: np.ndarray):
     texels[..., : layers.shape[3]] = layers
     buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
     return gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
+
+
+def sixteen_bit_texture(texels: np.ndarray, texture_format: str):
+    """A linearly filtered RGBA16F or RGBA16 texture from (height, width, 4) float texels
+    that are exact in that format (``FilteredFactorsBRDF.texels``), so the driver's
+    conversion from float cannot round them differently from the mirror."""
+    import gpu
+
+    if texture_format not in ("RGBA16F", "RGBA16"):
+        raise ValueError(f"not a 16-bit format: {texture_format!r}")
+    ensure_gpu()
+    texels = np.ascontiguousarray(texels, dtype=np.float32)
+    height, width = texels.shape[:2]
+    buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
+    texture = gpu.types.GPUTexture((width, height), format=texture_format, data=buffer)
+    if hasattr(texture, "filter_mode"):
+        # Blender 4.5 has no sampler API; its Python textures filter linearly already.
+        texture.filter_mode(True)
+    return texture

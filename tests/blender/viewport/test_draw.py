@@ -58,8 +58,9 @@ def _sphere_with(model, name="Probe", *, uv=True, location=(0.0, 0.0, 0.0)):
     return obj, material
 
 
-def _gpu_against_mirror(scene, material) -> np.ndarray:
-    """ΔE94 per covered pixel: the GPU's XYZ against shade_xyz at the GPU's geometry."""
+def _gpu_against_mirror(scene, material, mirror=None) -> np.ndarray:
+    """ΔE94 per covered pixel: the GPU's XYZ against shade_xyz at the GPU's geometry, of
+    the stored model or of ``mirror(model)``."""
     xyz, stats = draw.render_camera(scene, width=SIZE[0], height=SIZE[1])
     gbuffer = {out: draw.render_camera(scene, width=SIZE[0], height=SIZE[1], output=out)[0]
                for out in ("POSITION", "NORMAL", "TANGENT")}
@@ -69,6 +70,8 @@ def _gpu_against_mirror(scene, material) -> np.ndarray:
     _, view = draw.camera_view(camera, SIZE[0], SIZE[1], bpy.context.evaluated_depsgraph_get())
     lights, _ = scene_lights.drawn_lights(scene, np.asarray(view.origin))
     model = storage.load_factored(material)
+    if mirror is not None:
+        model = mirror(model)
     reference = shading.shade_xyz(model, gbuffer["POSITION"][covered, :3],
                                   gbuffer["NORMAL"][covered, :3],
                                   gbuffer["TANGENT"][covered, :3], view, lights)
@@ -82,6 +85,23 @@ def test_mesh_matches_mirror_with_uv_tangents(clean_scene, anisotropic_model):
     _sphere_with(anisotropic_model)
     de = _gpu_against_mirror(clean_scene, bpy.data.materials["Probe"])
     assert de.max() <= 0.1
+
+
+def test_the_materials_factor_precision_reaches_the_viewport(clean_scene, anisotropic_model):
+    """The material's precision picks the factor texture; the image is that path's mirror
+    (float filter weights, as llvmpipe filters), and switching back rebuilds the texture."""
+    from spectral_materials.blender.brdf import drawer
+    from spectral_materials.core.brdf.filtered_factors import filtered_factors
+
+    bpy.data.objects.remove(bpy.data.objects["Cube"])
+    _, material = _sphere_with(anisotropic_model)
+    material.spectral.draw_precision = "UNORM16_FILTERED"
+    de = _gpu_against_mirror(clean_scene, material,
+                             lambda m: filtered_factors(m, "unorm16", weight_bits=None))
+    assert de.max() <= 0.1
+    assert drawer.gpu_material(material).precision == "unorm16_filtered"
+    material.spectral.draw_precision = "EXACT"
+    assert drawer.gpu_material(material).precision == "exact"
 
 
 def test_mesh_without_uvs_uses_the_generated_tangent_field(clean_scene, anisotropic_model):
