@@ -149,7 +149,7 @@ def draw_rows(size: int, reps: int) -> list[dict]:
                 fast = _binder(bench, GPUMaterial(model, precision), lights)
                 bench.warm(fast)
                 timings = harness.interleave(lambda f=fast: bench.seconds_per_frame(f),
-                                             lambda: bench.seconds_per_frame(exact), reps)
+                                             lambda e=exact: bench.seconds_per_frame(e), reps)
                 rows.append({"packs": packs, "lights": n_lights, "precision": precision,
                              "exact_ms": 1e3 * float(np.median(timings.baseline)),
                              "fast_ms": 1e3 * float(np.median(timings.candidate)),
