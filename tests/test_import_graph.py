@@ -13,7 +13,7 @@ LAYERS = [
     ["core.decomposition", "core.lights", "core.raster_plots"],
     ["core.brdf"],
     ["core.formats"],
-    ["core.prt", "core.btf"],
+    ["core.prt", "core.btf", "core.library"],
     ["core", "(root)"],
 ]
 BLENDER_LAYERS = [

@@ -8,6 +8,7 @@ when the stored factors change; a material that failed is not retried until they
 
 from __future__ import annotations
 
+from ...core.brdf.filtered_factors import choose_precision
 from ..gpu import shaders
 from ..viewport import registry
 from . import storage
@@ -28,8 +29,18 @@ def _material_key(material) -> tuple | None:
 
 
 def draw_precision(material) -> str:
-    """The material's factor precision (``filtered_factors.FACTOR_PRECISIONS``)."""
+    """The material's factor precision setting: ``"auto"`` or one of
+    ``filtered_factors.FACTOR_PRECISIONS``."""
     return material.spectral.draw_precision.lower()
+
+
+def _gpu_material(model, setting: str) -> GPUMaterial:
+    if setting == "auto":
+        precision, measured = choose_precision(model)
+        resource = GPUMaterial(model, precision)
+        resource.chosen = measured
+        return resource
+    return GPUMaterial(model, setting)
 
 
 def gpu_material(material) -> GPUMaterial | None:
@@ -43,7 +54,7 @@ def gpu_material(material) -> GPUMaterial | None:
     if FAILED.get(material.name, (None,))[0] == key:
         return None
     try:
-        resource = GPUMaterial(storage.load_factored(material), draw_precision(material))
+        resource = _gpu_material(storage.load_factored(material), draw_precision(material))
     except ValueError as exc:
         FAILED[material.name] = (key, str(exc))
         print(f"Spectral Materials: not drawing '{material.name}': {exc}")
@@ -62,6 +73,12 @@ def bind(resource: GPUMaterial, frame: registry.DrawFrame) -> registry.BoundSlot
     resource.bind(shader, resource.light_texture(frame.lights, key.precontract,
                                                  frame.lights_key), params)
     return registry.BoundSlot(key, shader, params)
+
+
+def drawn_precision(material) -> str | None:
+    """The precision the viewport draws ``material`` with, once it has drawn it."""
+    cached = _MATERIALS.get(material.name)
+    return None if cached is None else cached[1].precision
 
 
 def failures() -> dict[str, str]:

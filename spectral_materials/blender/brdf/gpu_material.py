@@ -90,6 +90,8 @@ class GPUMaterial:
             self.factor_texture = sixteen_bit_texture(texels, self.model.texture_format)
             self.nbytes = int(texels.size * 2)
         self._light_textures: dict = {}
+        #: With the "auto" setting: each fast precision's measured max ΔE94 (drawer.py).
+        self.chosen: dict = {}
 
     @property
     def groups(self) -> int:

@@ -16,7 +16,7 @@ from ..ui.modal_job import draw_job
 from ..ui.spectrum import draw_spectrum
 from ..ui.widgets import draw_image
 from ..viewport import draw as spectral_draw
-from . import jobs, sources
+from . import drawer, jobs, sources
 from .properties import MODEL_KEYS
 
 #: ``section(layout, material)``, drawn in the Stored Factors panel in this order.
@@ -107,6 +107,9 @@ class SPECTRAL_PT_material_result(bpy.types.Panel):
         grid.label(text="Size")
         grid.label(text=f"{r.nbytes / 1024:.1f} KiB")
         layout.prop(material.spectral, "draw_precision")
+        drawn = drawer.drawn_precision(material)
+        if material.spectral.draw_precision == "AUTO" and drawn is not None:
+            layout.label(text=f"Drawn as: {drawn}", icon="INFO")
         draw_image(layout, r.plot, 8.0)
         layout.label(text="ΔE94 (D65, protocol pairs) against packs; dashed: target")
         for section in RESULT_SECTIONS:

@@ -98,7 +98,10 @@ DRAW_PRECISION_TEXT = {
                       "unit; relative precision, but terms that cancel near grazing "
                       "lose more than with 16-bit"),
 }
-DRAW_PRECISION_ITEMS = [(p.upper(), *DRAW_PRECISION_TEXT[p]) for p in FACTOR_PRECISIONS]
+DRAW_PRECISION_ITEMS = [
+    ("AUTO", "Automatic", "The fastest precision whose ΔE94 against exact stays within 0.05 "
+                          "on this material (measured when it is first drawn), else exact"),
+    *[(p.upper(), *DRAW_PRECISION_TEXT[p]) for p in FACTOR_PRECISIONS]]
 
 
 def _redraw_viewports(self, context) -> None:

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import metrics
 from .axes import cell_x
 from .factored import FactoredBRDF
 
@@ -178,3 +179,36 @@ def drawn_model(model: FactoredBRDF, precision: str) -> FactoredBRDF:
                          f"got {precision!r}")
     encoding, filtered = PRECISION_TEXELS[precision]
     return filtered_factors(model, encoding, HARDWARE_WEIGHT_BITS if filtered else None)
+
+
+#: The issue's bound on a fast path's colour error against the exact path (ΔE94).
+AUTO_BOUND_DE94 = 0.05
+#: Pairs and illuminants :func:`choose_precision` measures at (the protocol's seed).
+AUTO_PAIRS = 4000
+AUTO_ILLUMINANTS = ("D65", "FL11")
+#: The order :func:`choose_precision` tries, fastest first (docs/bench_factor_precision.md:
+#: one filtered fetch beats two; half and unorm16 fetch the same bytes).
+SPEED_ORDER = ("unorm16_filtered", "half_filtered", "unorm16")
+
+
+def choose_precision(model: FactoredBRDF, bound: float = AUTO_BOUND_DE94
+                     ) -> tuple[str, dict]:
+    """The fastest precision whose max ΔE94 against the exact path stays within ``bound``
+    at :data:`AUTO_PAIRS` protocol pairs under each of :data:`AUTO_ILLUMINANTS` (8-bit
+    filter weights for the filtered ones), else ``"exact"``; and each candidate's max.
+
+    Which encoding wins depends on the material: unorm16 keeps terms that cancel
+    (matte lobes near grazing), half keeps a glossy factor's dynamic range."""
+    if model.form != "cp":
+        return "exact", {}
+    wi, wo = metrics.random_direction_pairs(AUTO_PAIRS)
+    exact = {ill: model.xyz(wi, wo, ill) for ill in AUTO_ILLUMINANTS}
+    measured = {}
+    for precision in SPEED_ORDER:
+        fast = drawn_model(model, precision)
+        measured[precision] = max(
+            metrics.delta_e94_stats(exact[ill], fast.xyz(wi, wo, ill), ill)["max"]
+            for ill in AUTO_ILLUMINANTS)
+        if measured[precision] <= bound:
+            return precision, measured
+    return "exact", measured

@@ -214,3 +214,21 @@ def test_texels_are_what_the_texture_returns(encoding):
     else:
         k = texels.astype(np.float64) * 65535
         assert np.max(np.abs(k - np.round(k))) < 0.01       # float32 of k/65535
+
+
+def test_choose_precision_picks_by_measured_error():
+    """A matte lobe draws filtered; a glossy one whose filtered weights cost more than the
+    bound falls back to a slower precision or exact; the bound is respected either way."""
+    from spectral_materials.core.brdf.filtered_factors import SPEED_ORDER, choose_precision
+
+    _, matte = _model("oren_nayar", resolution=(16, 24, 16), packs=2, sigma=0.5, albedo=0.8)
+    precision, measured = choose_precision(matte)
+    assert precision != "exact" and measured[precision] <= 0.05
+    faster = SPEED_ORDER[:SPEED_ORDER.index(precision)]
+    assert all(measured[p] > 0.05 for p in faster)
+    _, glossy = _model("ggx", resolution=(16, 24, 16), packs=4, alpha_x=0.1, alpha_y=0.1)
+    precision, measured = choose_precision(glossy)
+    assert measured["unorm16_filtered"] > 0.05
+    assert precision == "exact" or measured[precision] <= 0.05
+    precision, _ = choose_precision(glossy, bound=10.0)
+    assert precision == "unorm16_filtered"
