@@ -22,7 +22,7 @@ BLENDER_LAYERS = [
     ["blender.lights"],
     ["blender.viewport"],
     ["blender.brdf"],
-    ["blender.eevee", "blender.prt", "blender.btf"],
+    ["blender.eevee", "blender.prt", "blender.btf", "blender.library"],
     ["blender.scene_properties"],
     ["blender"],
     ["cli"],

@@ -24,7 +24,7 @@ _PROBLEMS = dependency_problems()
 if not _PROBLEMS:
     import bpy
 
-    from . import brdf, btf, eevee, lights, prt, scene_properties, ui
+    from . import brdf, btf, eevee, library, lights, prt, scene_properties, ui
 
     # Each capability's drawer registers itself with the viewport's registry at import.
     from .brdf import drawer as _brdf_drawer  # noqa: F401
@@ -33,7 +33,7 @@ if not _PROBLEMS:
     from .viewport import draw
 
     #: Registered in this order, unregistered in reverse.
-    PACKAGES = (ui, lights, brdf, prt, btf, eevee, scene_properties)
+    PACKAGES = (ui, lights, brdf, prt, btf, eevee, library, scene_properties)
 
 
 _STATE = {"registered": False, "exit_hook": False}

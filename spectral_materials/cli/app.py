@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from ..core.progress import ctrl_c_cancels
-from . import factor, render_sphere
+from . import factor, library, render_sphere
 from .common import EXIT_CANCELLED, EXIT_ERROR, PROG, Progress
 
 
@@ -18,6 +18,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     factor.add_parser(sub)
     render_sphere.add_parser(sub)
+    library.add_parser(sub)
     return parser
 
 

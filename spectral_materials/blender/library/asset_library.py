@@ -1,0 +1,105 @@
+"""A spectral material library as a Blender Asset Library .blend.
+
+Each entry becomes a material marked as an asset. It carries its factors as the add-on
+stores them (``brdf.storage``), its catalog by source, and its thumbnail as the preview.
+The .blend is written with ``bpy.data.libraries.write``, so only these materials and
+their images go in, and the open file is left as it was: the materials are made, written
+and removed again. ``blender_assets.cats.txt`` goes beside the .blend. Registering the
+folder under Preferences > File Paths > Asset Libraries puts the materials in the Asset
+Browser.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ...core.brdf.factored import FactoredBRDF
+from ...core.library import layout
+from ...core.progress import ProgressCallback, report
+from ..brdf import storage
+from .catalogs import catalog_id, write_catalogs
+
+DEFAULT_BLEND = "spectral_library.blend"
+
+
+@dataclass
+class AssetLibraryFile:
+    blend: Path
+    catalog_file: Path
+    materials: int
+    catalogs: int
+
+
+def _preview_pixels(path: Path) -> tuple[tuple[int, int], np.ndarray]:
+    """A thumbnail PNG as Blender's preview wants it: (width, height) and RGBA floats,
+    row 0 at the bottom."""
+    from PIL import Image
+
+    with Image.open(path) as image:
+        rgba = np.asarray(image.convert("RGBA"), dtype=np.float32) / 255.0
+    return (rgba.shape[1], rgba.shape[0]), rgba[::-1].ravel()
+
+
+def _make_material(entry: dict, folder: Path):
+    model = FactoredBRDF.load(folder / "factors.npz")
+    material = bpy.data.materials.new(entry["name"])
+    try:
+        material.spectral.enabled = True
+        storage.store_factored(material, model, input_hash=entry.get("input_sha256", ""))
+        material.asset_mark()
+        asset = material.asset_data
+        asset.catalog_id = catalog_id(entry["catalog"])
+        asset.description = (f"{entry['format']}: ΔE94 mean {entry['de94']['mean']:.3f}, "
+                             f"{entry['packs']} packs; from {Path(entry['source']).name}")
+        for tag in ("spectral", Path(entry["source"]).suffix.lstrip(".")):
+            asset.tags.new(tag, skip_if_exists=True)
+        size, pixels = _preview_pixels(folder / "thumbnail.png")
+        preview = material.preview_ensure()
+        preview.image_size = size
+        preview.image_pixels_float.foreach_set(pixels)
+    except Exception:
+        _remove(material)
+        raise
+    return material
+
+
+def _remove(material) -> None:
+    result = material.spectral.result
+    for image in (result.image, result.plot):
+        if image is not None:
+            bpy.data.images.remove(image)
+    bpy.data.materials.remove(material)
+
+
+def write_asset_library(library: str | Path, blend: str | Path | None = None, *,
+                        callback: ProgressCallback | None = None) -> AssetLibraryFile:
+    """Write the library folder ``library`` as an Asset Library .blend (default
+    ``LIB/spectral_library.blend``) and its catalog file; the open file is unchanged.
+    NotALibrary names a folder that is not a library."""
+    root = layout.open_library(library, create=False)
+    document = json.loads((root / layout.INDEX_FILE).read_text(encoding="utf-8"))
+    entries = document.get("entries", [])
+    if not entries:
+        raise layout.NotALibrary(f"{root}: the library has no materials to import")
+    target = Path(blend) if blend is not None else root / DEFAULT_BLEND
+    target.parent.mkdir(parents=True, exist_ok=True)
+    made = []
+    try:
+        for count, entry in enumerate(entries, start=1):
+            report(callback, (count - 1) / len(entries), f"{entry['name']}")
+            made.append(_make_material(entry, root / layout.MATERIALS / entry["id"]))
+        report(callback, 1.0, f"writing {target.name}")
+        partial = target.with_name(f".{target.name}.partial")
+        bpy.data.libraries.write(str(partial), set(made), fake_user=True, compress=True)
+        partial.replace(target)
+    finally:
+        for material in made:
+            _remove(material)
+    catalogs = {entry["catalog"] for entry in entries}
+    cats = write_catalogs(target.parent, catalogs)
+    return AssetLibraryFile(target, cats, len(entries), len(catalogs))
