@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,7 +53,7 @@ def build_library(sources: list[str | Path], out: str | Path,
     files = find_sources(sources)
     root = layout.open_library(out, create=True)
     layout.remove_partials(root)
-    current = {row.get("key") for row in layout.read_entries(root)}
+    current = {row["id"]: row.get("key") for row in layout.read_entries(root)}
     executor = executor_for(scheduler, workers)
     result = BuildReport(root, executor.name)
     jobs = []
@@ -60,7 +61,7 @@ def build_library(sources: list[str | Path], out: str | Path,
     for source in files:
         digest = file_digest(source.path)
         key = entry_key(digest, settings)
-        if key in current:
+        if current.get(entry_id(source)) == key:
             result.skipped.append(str(source.path))
         else:
             jobs.append(_job(source, digest, key, settings))
@@ -94,10 +95,17 @@ def _finish(root: Path, job: Job, payload: dict | None, error: BaseException | N
             message = f"{type(error).__name__}: {message}"
         result.failed.append({"source": str(source.path), "error": message})
         return
-    entry_id = f"{slug(source.name)}-{digest[:10]}"
     row = {**payload["row"], "name": source.name, "catalog": source.catalog,
            "source": str(source.path), "format": READERS[source.path.suffix.lower()][0],
            "file_bytes": source.path.stat().st_size, "input_sha256": digest, "key": key,
            "files": [FACTORS_FILE, THUMBNAIL_FILE]}
-    if layout.write_entry(root, entry_id, payload["files"], row):
-        result.written.append(entry_id)
+    if layout.write_entry(root, entry_id(source), payload["files"], row):
+        result.written.append(entry_id(source))
+
+
+def entry_id(source: SourceFile) -> str:
+    """A source's entry folder: its name, and a hash of where it sits in the catalogs (two
+    files of the same name in different folders are two entries; a file whose content
+    changes keeps its entry, which is replaced)."""
+    where = f"{source.catalog}/{source.name}{source.path.suffix.lower()}"
+    return f"{slug(source.name)}-{hashlib.sha1(where.encode()).hexdigest()[:10]}"

@@ -9,16 +9,18 @@ only when it is submitted (memory stays in proportion to the jobs running).
   is started again and the jobs that had not finished are submitted again
   (``MAX_POOL_RESTARTS`` times).
 - :class:`DaskCluster`: ``distributed.Client`` on a scheduler address. The scheduler
-  itself runs a dead worker's tasks again on the others. Dask is needed only here:
-  the extension never imports this.
+  itself runs a dead worker's tasks again on the others; a task whose scattered input
+  died with its worker is submitted again (``MAX_TASK_ATTEMPTS``). Dask is needed only
+  here: the extension never imports this.
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
+import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, CancelledError, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +29,10 @@ from typing import Any
 MAX_POOL_RESTARTS = 3
 #: Seconds to wait for a Dask scheduler to answer.
 CONNECT_TIMEOUT = 10.0
+#: Times a Dask task is submitted again after the cluster (not its input) failed it.
+MAX_TASK_ATTEMPTS = 3
+#: Tries to place a file's bytes on a worker (0.5 s apart).
+SCATTER_ATTEMPTS = 10
 
 
 @dataclass
@@ -69,10 +75,10 @@ class LocalPool:
                         running[pool.submit(fn, *job.load())] = job
                     done, _ = wait(running, return_when=FIRST_COMPLETED)
                     for future in done:
-                        job = running.pop(future)
                         error = future.exception()
                         if isinstance(error, BrokenProcessPool):
-                            raise error
+                            raise error           # the job stays in running: rerun below
+                        job = running.pop(future)
                         yield job, (None if error else future.result()), error
             except BrokenProcessPool:
                 restarts += 1
@@ -119,6 +125,7 @@ class DaskCluster:
 
         workers = max(1, len(self.client.scheduler_info().get("workers", {})))
         pending = list(jobs)[::-1]
+        attempts: dict[int, int] = {}
         running: dict = {}
         completed = as_completed()
 
@@ -127,7 +134,7 @@ class DaskCluster:
                 job = pending.pop()
                 name, suffix, data, settings = job.load()
                 # Scattered first: large file bytes travel to a worker, not in the graph.
-                [remote] = self.client.scatter([data], hash=False)
+                remote = self._scatter(data)
                 future = self.client.submit(fn, name, suffix, remote, settings, pure=False)
                 running[future.key] = (job, future)
                 completed.add(future)
@@ -137,11 +144,37 @@ class DaskCluster:
             job, _ = running.pop(future.key)
             try:
                 result, error = future.result(), None
-            except Exception as exc:        # the task's own error, or KilledWorker
+            except Exception as exc:        # the task's own error, or the cluster's
                 result, error = None, exc
             future.release()
+            if error is not None and _cluster_error(error):
+                # A dead worker took the task or its scattered bytes: run it again.
+                attempts[id(job)] = attempts.get(id(job), 0) + 1
+                if attempts[id(job)] <= MAX_TASK_ATTEMPTS:
+                    pending.append(job)
+                    submit()
+                    continue
             yield job, result, error
             submit()
+
+    def _scatter(self, data: bytes):
+        """``data`` on a worker; retried while the scheduler still names a dead one."""
+        for attempt in range(SCATTER_ATTEMPTS):
+            try:
+                [remote] = self.client.scatter([data], hash=False)
+                return remote
+            except OSError:                 # CommClosedError: that worker just died
+                if attempt == SCATTER_ATTEMPTS - 1:
+                    raise
+                time.sleep(0.5)
+        raise AssertionError("unreachable")
+
+
+def _cluster_error(error: BaseException) -> bool:
+    """Whether a task failed because of the cluster (a worker died, data was lost), not
+    because of its input: distributed's own exceptions, cancellations, lost connections."""
+    return (type(error).__module__.split(".")[0] == "distributed"
+            or isinstance(error, OSError | CancelledError | TimeoutError))
 
 
 def executor_for(scheduler: str | None, workers: int | None):
