@@ -103,3 +103,15 @@ def write_asset_library(library: str | Path, blend: str | Path | None = None, *,
     catalogs = {entry["catalog"] for entry in entries}
     cats = write_catalogs(target.parent, catalogs)
     return AssetLibraryFile(target, cats, len(entries), len(catalogs))
+
+
+def register_asset_library(folder: str | Path, name: str | None = None):
+    """Add ``folder`` to Preferences > File Paths > Asset Libraries (once; an entry with the
+    same folder is returned as it is). Blender saves it with the preferences."""
+    folder = Path(folder).resolve()
+    libraries = bpy.context.preferences.filepaths.asset_libraries
+    for library in libraries:
+        if Path(bpy.path.abspath(library.path)).resolve() == folder:
+            return library
+    entry = libraries.new(name=name or folder.name, directory=str(folder))
+    return entry

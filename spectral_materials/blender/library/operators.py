@@ -4,10 +4,10 @@
 from __future__ import annotations
 
 import bpy
-from bpy.props import StringProperty
+from bpy.props import BoolProperty, StringProperty
 
 from ...core.errors import InvalidBRDFData
-from .asset_library import write_asset_library
+from .asset_library import register_asset_library, write_asset_library
 
 
 class SPECTRAL_OT_import_library(bpy.types.Operator):
@@ -18,6 +18,9 @@ class SPECTRAL_OT_import_library(bpy.types.Operator):
     bl_options = {"REGISTER"}
 
     directory: StringProperty(name="Library folder", subtype="DIR_PATH")
+    register: BoolProperty(name="Add to Asset Libraries", default=True,
+                           description="Add the folder to Preferences > File Paths > Asset "
+                                       "Libraries, so its materials show in the Asset Browser")
 
     def invoke(self, context, event):
         context.window_manager.fileselect_add(self)
@@ -29,8 +32,13 @@ class SPECTRAL_OT_import_library(bpy.types.Operator):
         except (InvalidBRDFData, OSError, ValueError) as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Wrote {out.blend} ({out.materials} materials); add its folder "
-                              "under Preferences > File Paths > Asset Libraries")
+        if self.register:
+            library = register_asset_library(out.blend.parent)
+            self.report({"INFO"}, f"Wrote {out.blend} ({out.materials} materials); it is the "
+                                  f"asset library '{library.name}'")
+        else:
+            self.report({"INFO"}, f"Wrote {out.blend} ({out.materials} materials); add its "
+                                  "folder under Preferences > File Paths > Asset Libraries")
         return {"FINISHED"}
 
 

@@ -67,11 +67,12 @@ def open_library(root: str | Path, *, create: bool) -> Path:
             raise NotALibrary(f"{root}: library version {document.get('version')} is newer "
                               "than this add-on reads; update Spectral Materials")
         return root
+    if not create:
+        raise NotALibrary(f"{root}: not a spectral material library (no {INDEX_FILE}); "
+                          "build one with: python -m spectral_materials library build")
     if root.exists() and (not root.is_dir() or any(root.iterdir())):
         raise NotALibrary(f"{root}: not a spectral material library (no {INDEX_FILE}) and "
                           "not empty; give a new or empty folder")
-    if not create:
-        raise NotALibrary(f"{root}: no library here (no {INDEX_FILE})")
     (root / MATERIALS).mkdir(parents=True, exist_ok=True)
     return root
 
