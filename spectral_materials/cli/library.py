@@ -34,7 +34,13 @@ def cmd_build(args, progress: Progress) -> int:
 
 
 def cmd_import(args, progress: Progress) -> int:
+    import bpy
+
+    from .. import blender as addon
     from ..blender.library.asset_library import write_asset_library
+
+    if not hasattr(bpy.types.Material, "spectral"):
+        addon.register()      # the materials carry the add-on's properties
 
     out = write_asset_library(args.library, args.blend, callback=progress)
     progress.clear()

@@ -81,6 +81,9 @@ def write_asset_library(library: str | Path, blend: str | Path | None = None, *,
     """Write the library folder ``library`` as an Asset Library .blend (default
     ``LIB/spectral_library.blend``) and its catalog file; the open file is unchanged.
     NotALibrary names a folder that is not a library."""
+    if not hasattr(bpy.types.Material, "spectral"):
+        raise RuntimeError("the Spectral Materials add-on is not registered: call "
+                           "spectral_materials.blender.register() first")
     root = layout.open_library(library, create=False)
     document = json.loads((root / layout.INDEX_FILE).read_text(encoding="utf-8"))
     entries = document.get("entries", [])
