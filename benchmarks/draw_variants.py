@@ -69,7 +69,9 @@ def light_by_light_shader(key: shaders.ShaderKey):
     return gpu.shader.create_from_info(shaders.create_info(key, fragment=patched))
 
 
-def _binder(bench: Bench, material: GPUMaterial, key, light_rows, shader=None):
+def material_binder(bench: Bench, material: GPUMaterial, key, light_rows, shader=None):
+    """A bind function drawing ``material`` with variant ``key`` (or ``shader``) and these
+    light rows on the benchmark's target."""
     shader = shader or shaders.get_shader(key)
     params = material.params(DisplaySettings(), view_origin=VIEW_ORIGIN,
                              view_projection=bench.vp)
@@ -89,19 +91,19 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
         for rule in LABELS[comparison]:
             material = GPUMaterial(replace(model, edge=rule))
             key = material.key(lights, precontract=True, output="DISPLAY")
-            out.append(_binder(bench, material, key, material.light_texture(lights, True)))
+            out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
     material = GPUMaterial(model)
     key = material.key(lights, precontract=True, output="DISPLAY")
     if comparison == "light loop":
         rows = material.light_texture(lights, True)
-        return (_binder(bench, material, key, rows, light_by_light_shader(key)),
-                _binder(bench, material, key, rows))
+        return (material_binder(bench, material, key, rows, light_by_light_shader(key)),
+                material_binder(bench, material, key, rows))
     if not key.light_stride:
         raise ValueError(f"{packs} packs × {n_lights} lights do not fit the uniform buffer")
     texture = float_texture(light_texels(model, lights, precontract=True))
-    return (_binder(bench, material, replace(key, light_stride=0), texture),
-            _binder(bench, material, key, material.light_texture(lights, True)))
+    return (material_binder(bench, material, replace(key, light_stride=0), texture),
+            material_binder(bench, material, key, material.light_texture(lights, True)))
 
 
 def nearest_texel_shader(key):

@@ -33,7 +33,6 @@ import numpy as np
 from spectral_materials.blender.brdf.gpu_material import GPUMaterial
 from spectral_materials.blender.gpu import shaders
 from spectral_materials.blender.gpu.context import ensure_gpu
-from spectral_materials.blender.gpu.display import DisplaySettings
 from spectral_materials.core.brdf import metrics
 from spectral_materials.core.brdf.filtered_factors import (
     FACTOR_PRECISIONS,
@@ -45,7 +44,7 @@ from spectral_materials.core.brdf.job import factor_material
 
 from . import colour_targets as targets, harness
 from .draw import Bench, bench_target, make_lights, sphere_batch, view_projection
-from .draw_baseline import VIEW_ORIGIN
+from .draw_variants import material_binder
 from .synthetic import DISC_FRACTION, synthetic_model
 
 FAST = tuple(p for p in FACTOR_PRECISIONS if p != "exact")
@@ -125,15 +124,7 @@ def texture_bytes(model, precision: str) -> int:
 
 def _binder(bench: Bench, material: GPUMaterial, lights):
     key = material.key(lights, precontract=True, output="DISPLAY")
-    shader = shaders.get_shader(key)
-    rows = material.light_texture(lights, True)
-    params = material.params(DisplaySettings(), view_origin=VIEW_ORIGIN,
-                             view_projection=bench.vp)
-
-    def bind():
-        material.bind(shader, rows, params)
-        return shader
-    return bind
+    return material_binder(bench, material, key, material.light_texture(lights, True))
 
 
 def draw_rows(size: int, reps: int) -> list[dict]:

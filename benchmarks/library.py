@@ -11,8 +11,9 @@ the CLI's defaults (4 packs, 32 θ cells, basis 8). In the same run, with the sa
 
 Each builds into a new folder. Materials per hour = files / wall seconds · 3600. The local
 pool's worker start-up is inside the time; the LocalCluster is started before the clock,
-as a cluster given with ``--scheduler`` is already running. Bytes per material: the entry's factor file against the source file
-and against a neural BRDF of 675 float32 weights (Sztrajman et al. 2021: 2,700 bytes).
+as a cluster given with ``--scheduler`` is already running. Bytes per material: the entry's
+factor file against the source file and against a neural BRDF of 675 float32 weights
+(Sztrajman et al. 2021: 2,700 bytes).
 The RGL file here is generated (no network): its size stands for the layout, not for
 the RGL database's files.
 

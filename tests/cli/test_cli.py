@@ -212,27 +212,34 @@ def test_csv_spectrum_reaches_the_model(tmp_path, capsys):
     assert doc["wavelengths"]["count"] == 16
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
-def test_ctrl_c_cancels_with_status_130():
+def interrupt_when(args: list, needle: str, timeout: float = 60) -> tuple[int, str]:
+    """Run the command line with ``args``, send SIGINT once ``needle`` is on stderr; (exit
+    status, stderr)."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "spectral_materials", "factor", "ggx", "--resolution", "90",
-         "180", "90", "--packs", "64"],
+        [sys.executable, "-m", "spectral_materials", *map(str, args)],
         cwd=ROOT, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + timeout
         seen = ""
-        while "tabulating" not in seen and time.monotonic() < deadline:
+        while needle not in seen and time.monotonic() < deadline:
             line = process.stderr.readline()
             if not line:
                 break
             seen += line
-        assert "tabulating" in seen, seen
+        assert needle in seen, seen
         process.send_signal(signal.SIGINT)
-        _, err = process.communicate(timeout=60)
+        _, err = process.communicate(timeout=timeout)
     finally:
         if process.poll() is None:
             process.kill()
             process.wait()
-    assert process.returncode == 130, err
+    return process.returncode, err
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_cancels_with_status_130():
+    status, err = interrupt_when(["factor", "ggx", "--resolution", "90", "180", "90",
+                                  "--packs", "64"], "tabulating")
+    assert status == 130, err
     assert err.strip().splitlines()[-1] == "cancelled"
     assert "Traceback" not in err

@@ -4,14 +4,11 @@ run as a user runs them: in a subprocess, with their exit statuses and messages.
 from __future__ import annotations
 
 import json
-import signal
-import subprocess
 import sys
-import time
 
 import pytest
 from library_sources import make_sources
-from test_cli import ROOT, _env, run_cli
+from test_cli import interrupt_when, run_cli
 
 from spectral_materials.core.library import layout
 
@@ -75,26 +72,9 @@ def test_an_output_folder_that_is_not_a_library(sources, tmp_path):
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_ctrl_c_leaves_a_consistent_library(sources, tmp_path):
     lib = tmp_path / "lib"
-    process = subprocess.Popen(
-        [sys.executable, "-m", "spectral_materials", "library", "build", str(sources), "--out",
-         str(lib), "--workers", "1", *SMALL], cwd=ROOT, env=_env(), stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 120
-        seen = ""
-        while "1/10" not in seen and time.monotonic() < deadline:
-            line = process.stderr.readline()
-            if not line:
-                break
-            seen += line
-        assert "1/10" in seen, seen
-        process.send_signal(signal.SIGINT)
-        _, err = process.communicate(timeout=120)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    assert process.returncode == 130, err
+    status, err = interrupt_when(["library", "build", sources, "--out", lib, "--workers", "1",
+                                  *SMALL], "1/10", timeout=120)
+    assert status == 130, err
     index = json.loads((lib / layout.INDEX_FILE).read_text())
     folders = [p for p in (lib / layout.MATERIALS).iterdir()]
     assert 1 <= len(index["entries"]) == len(folders) < 10

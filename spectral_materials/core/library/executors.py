@@ -114,7 +114,8 @@ class DaskCluster:
             from distributed import Client
         except ImportError:
             raise SchedulerUnreachable(
-                "--scheduler needs Dask: pip install -r requirements/cli.txt") from None
+                f"the Dask scheduler at {self.address} needs Dask installed: "
+                "pip install -r requirements/cli.txt") from None
         try:
             self.client = Client(self.address, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError) as exc:
