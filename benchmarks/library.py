@@ -105,11 +105,14 @@ def preview_sheet(library: Path, out: Path, columns: int = 5) -> dict:
     from PIL import Image, ImageDraw
 
     from spectral_materials import blender as addon
-    from spectral_materials.blender.library.asset_library import write_asset_library
+    from spectral_materials.blender.library.asset_library import asset_names, write_asset_library
 
     if not hasattr(bpy.types.Material, "spectral"):
         addon.register()
     written = write_asset_library(library)
+    index = json.loads((library / layout.INDEX_FILE).read_text())
+    catalogs = dict(zip(asset_names(index["entries"]),
+                        (e["catalog"] for e in index["entries"])))
     with bpy.data.libraries.load(str(written.blend), assets_only=True) as (source, target):
         target.materials = list(source.materials)
     tiles = []
@@ -118,7 +121,7 @@ def preview_sheet(library: Path, out: Path, columns: int = 5) -> dict:
         pixels = np.empty(width * height * 4, dtype=np.float32)
         material.preview.image_pixels_float.foreach_get(pixels)
         rgb = (pixels.reshape(height, width, 4)[::-1, :, :3] * 255).round().astype(np.uint8)
-        catalog = bpy.data.materials[material.name].asset_data.catalog_simple_name
+        catalog = catalogs[material.name]
         tiles.append((material.name, catalog, Image.fromarray(rgb).resize((width * 2,
                                                                               height * 2))))
     tile_w, tile_h = tiles[0][2].size

@@ -45,9 +45,19 @@ def _preview_pixels(path: Path) -> tuple[tuple[int, int], np.ndarray]:
     return (rgba.shape[1], rgba.shape[0]), rgba[::-1].ravel()
 
 
-def _make_material(entry: dict, folder: Path):
+def asset_names(entries: list[dict]) -> list[str]:
+    """Each entry's material name: its own, or with its catalog's last folder where two
+    entries share one (Blender would otherwise number them .001, .002)."""
+    counts: dict[str, int] = {}
+    for entry in entries:
+        counts[entry["name"]] = counts.get(entry["name"], 0) + 1
+    return [entry["name"] if counts[entry["name"]] == 1
+            else f"{entry['name']} ({entry['catalog'].rsplit('/', 1)[-1]})" for entry in entries]
+
+
+def _make_material(entry: dict, folder: Path, name: str):
     model = FactoredBRDF.load(folder / "factors.npz")
-    material = bpy.data.materials.new(entry["name"])
+    material = bpy.data.materials.new(name)
     try:
         material.spectral.enabled = True
         storage.store_factored(material, model, input_hash=entry.get("input_sha256", ""))
@@ -93,9 +103,9 @@ def write_asset_library(library: str | Path, blend: str | Path | None = None, *,
     target.parent.mkdir(parents=True, exist_ok=True)
     made = []
     try:
-        for count, entry in enumerate(entries, start=1):
-            report(callback, (count - 1) / len(entries), f"{entry['name']}")
-            made.append(_make_material(entry, root / layout.MATERIALS / entry["id"]))
+        for count, (entry, name) in enumerate(zip(entries, asset_names(entries)), start=1):
+            report(callback, (count - 1) / len(entries), name)
+            made.append(_make_material(entry, root / layout.MATERIALS / entry["id"], name))
         report(callback, 1.0, f"writing {target.name}")
         partial = target.with_name(f".{target.name}.partial")
         bpy.data.libraries.write(str(partial), set(made), fake_user=True, compress=True)

@@ -16,6 +16,7 @@ only when it is submitted (memory stays in proportion to the jobs running).
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
@@ -45,6 +46,10 @@ class Job:
     data: Any = None
 
 
+#: What ``run`` yields per job: the job, its result (None on error), its error or None.
+Outcome = tuple[Job, Any, "BaseException | None"]
+
+
 class SchedulerUnreachable(OSError):
     """The Dask scheduler did not answer (the message names it)."""
 
@@ -62,7 +67,11 @@ class LocalPool:
     def __exit__(self, *exc) -> None:
         pass
 
-    def run(self, fn: Callable, jobs: list[Job]) -> Iterator[tuple[Job, Any, BaseException | None]]:
+    def run(self, fn: Callable, jobs: list[Job]) -> Iterator[Outcome]:
+        with _threads_per_worker(self.workers):
+            yield from self._run(fn, jobs)
+
+    def _run(self, fn: Callable, jobs: list[Job]) -> Iterator[Outcome]:
         pending = list(jobs)[::-1]
         restarts = 0
         while pending:
@@ -93,6 +102,26 @@ class LocalPool:
                     pending = []
             finally:
                 pool.shutdown(wait=False, cancel_futures=True)
+
+
+#: The variables NumPy's BLAS and OpenMP read for their thread count.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def _threads_per_worker(workers: int):
+    """Spawned workers inherit the environment: each gets cores / workers BLAS threads, so
+    that N workers do not each start a thread per core (on 2 cores, 2 workers of 2 threads
+    ran at 0.49× a sequential loop). Variables the user set are left alone."""
+    share = str(max(1, (os.cpu_count() or 1) // workers))
+    added = [name for name in THREAD_VARIABLES if name not in os.environ]
+    for name in added:
+        os.environ[name] = share
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
 
 
 def _ignore_ctrl_c() -> None:
@@ -129,7 +158,7 @@ class DaskCluster:
         if self.client is not None:
             self.client.close()
 
-    def run(self, fn: Callable, jobs: list[Job]) -> Iterator[tuple[Job, Any, BaseException | None]]:
+    def run(self, fn: Callable, jobs: list[Job]) -> Iterator[Outcome]:
         from distributed import as_completed
 
         workers = max(1, len(self.client.scheduler_info().get("workers", {})))
