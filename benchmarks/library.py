@@ -15,7 +15,10 @@ as a cluster given with ``--scheduler`` is already running. Bytes per material: 
 factor file against the source file and against a neural BRDF of 675 float32 weights
 (Sztrajman et al. 2021: 2,700 bytes).
 The RGL file here is generated (no network): its size stands for the layout, not for
-the RGL database's files.
+the RGL database's files. For those, RGL's own figure is used: "approximately 16KiB and
+544KiB per channel for isotropic and anisotropic materials", spectral "360 (UV) - 1000nm
+(NIR) range with ~4nm sample spacing" (rgl.epfl.ch/pages/lab/material-database), that is
+161 channels per spectral file.
 
 Writes ``docs/bench_library.md``/``.json`` and ``docs/images/library_previews.png``
 (``--quick``: one source folder, 1 pack, 8 θ cells).
@@ -44,6 +47,10 @@ from . import harness
 
 ROOT = Path(__file__).resolve().parents[1]
 NEURAL_BRDF_BYTES = 675 * 4
+#: RGL's stated bytes per channel (isotropic, anisotropic) and its spectral channel count
+#: (360–1000 nm at ~4 nm), from the material database's FAQ (module doc).
+RGL_BYTES_PER_CHANNEL = {"isotropic": 16 * 1024, "anisotropic": 544 * 1024}
+RGL_SPECTRAL_CHANNELS = (1000 - 360) // 4 + 1
 SHEET = ROOT / "docs" / "images" / "library_previews.png"
 
 
@@ -105,7 +112,8 @@ def preview_sheet(library: Path, out: Path, columns: int = 5) -> dict:
     from PIL import Image, ImageDraw
 
     from spectral_materials import blender as addon
-    from spectral_materials.blender.library.asset_library import asset_names, write_asset_library
+    from spectral_materials.blender.library.asset_library import write_asset_library
+    from spectral_materials.blender.library.catalogs import asset_names
 
     if not hasattr(bpy.types.Material, "spectral"):
         addon.register()
@@ -162,6 +170,8 @@ def run(quick: bool, sheet: Path) -> dict:
             "cpu_count": os.cpu_count(), "quick": quick, "settings": settings.as_dict(),
             "files": rows[0]["written"], "throughput": rows, "entries": entries,
             "neural_brdf_bytes": NEURAL_BRDF_BYTES, "previews": previews,
+            "rgl_spectral_file_bytes": {kind: per_channel * RGL_SPECTRAL_CHANNELS
+                                        for kind, per_channel in RGL_BYTES_PER_CHANNEL.items()},
             "seconds": time.perf_counter() - started}
 
 
@@ -186,13 +196,19 @@ def markdown(r: dict) -> list[str]:
               f"against a neural BRDF of 675 float32 weights ({r['neural_brdf_bytes']:,} "
               "bytes). ΔE94 under D65 at the protocol's random pairs against the file's own "
               "data.", "",
-              "| material | source | file bytes | factor bytes | × file | × neural | ΔE94 "
-              "mean / p95 / max |", "|---|---|---|---|---|---|---|"]
+              f"RGL's own spectral files, by its FAQ's figures: "
+              f"{r['rgl_spectral_file_bytes']['isotropic']:,} bytes isotropic and "
+              f"{r['rgl_spectral_file_bytes']['anisotropic']:,} anisotropic (module doc); "
+              "the last column is against the isotropic one.", "",
+              "| material | source | file bytes | factor bytes | × file | × neural | × RGL "
+              "isotropic | ΔE94 mean / p95 / max |", "|---|---|---|---|---|---|---|---|"]
     for e in r["entries"]:
         de = e["de94"]
         lines.append(f"| {e['name']} | {e['format'].split(' (')[0]} | {e['file_bytes']:,} | "
                      f"{e['bytes']:,} | {e['bytes'] / e['file_bytes']:.4f} | "
-                     f"{e['bytes'] / r['neural_brdf_bytes']:.2f} | {de['mean']:.3f} / "
+                     f"{e['bytes'] / r['neural_brdf_bytes']:.2f} | "
+                     f"{e['bytes'] / r['rgl_spectral_file_bytes']['isotropic']:.4f} | "
+                     f"{de['mean']:.3f} / "
                      f"{de['p95']:.3f} / {de['max']:.2f} |")
     p = r["previews"]
     lines += ["", "## The Asset Browser's previews", "",

@@ -22,7 +22,7 @@ from ...core.brdf.factored import FactoredBRDF
 from ...core.library import layout
 from ...core.progress import ProgressCallback, report
 from ..brdf import storage
-from .catalogs import catalog_id, write_catalogs
+from .catalogs import asset_names, catalog_id, write_catalogs
 
 DEFAULT_BLEND = "spectral_library.blend"
 
@@ -43,16 +43,6 @@ def _preview_pixels(path: Path) -> tuple[tuple[int, int], np.ndarray]:
     with Image.open(path) as image:
         rgba = np.asarray(image.convert("RGBA"), dtype=np.float32) / 255.0
     return (rgba.shape[1], rgba.shape[0]), rgba[::-1].ravel()
-
-
-def asset_names(entries: list[dict]) -> list[str]:
-    """Each entry's material name: its own, or with its catalog's last folder where two
-    entries share one (Blender would otherwise number them .001, .002)."""
-    counts: dict[str, int] = {}
-    for entry in entries:
-        counts[entry["name"]] = counts.get(entry["name"], 0) + 1
-    return [entry["name"] if counts[entry["name"]] == 1
-            else f"{entry['name']} ({entry['catalog'].rsplit('/', 1)[-1]})" for entry in entries]
 
 
 def _make_material(entry: dict, folder: Path, name: str):

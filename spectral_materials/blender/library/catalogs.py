@@ -41,3 +41,35 @@ def write_catalogs(folder: Path, paths: set[str]) -> Path:
     target = Path(folder) / CATALOG_FILE
     target.write_text(catalog_text(paths), encoding="utf-8")
     return target
+
+
+def asset_names(entries: list[dict]) -> list[str]:
+    """Each entry's material name: its own, or, where entries share one, with the folders
+    that tell them apart (and the file type where even those agree); Blender would
+    otherwise number them .001, .002."""
+    groups: dict[str, list[int]] = {}
+    for k, entry in enumerate(entries):
+        groups.setdefault(entry["name"], []).append(k)
+    names = [entry["name"] for entry in entries]
+    for name, members in groups.items():
+        if len(members) == 1:
+            continue
+        paths = [entries[k]["catalog"].split("/") for k in members]
+        head = 0
+        while all(len(p) > head for p in paths) and len({p[head] for p in paths}) == 1:
+            head += 1
+        tail = 0
+        while (all(len(p) - head > tail for p in paths)
+               and len({p[len(p) - 1 - tail] for p in paths}) == 1):
+            tail += 1
+        for k, parts in zip(members, paths):
+            where = "/".join(parts[head:len(parts) - tail]) or "/".join(parts)
+            names[k] = f"{name} ({where})"
+    seen: dict[str, int] = {}
+    for name in names:
+        seen[name] = seen.get(name, 0) + 1
+    for k, entry in enumerate(entries):
+        if seen[names[k]] > 1:
+            names[k] = f"{names[k][:-1]}, {Path(entry['source']).suffix.lstrip('.')})" \
+                if names[k].endswith(")") else f"{names[k]} ({Path(entry['source']).suffix})"
+    return names

@@ -20,7 +20,7 @@ from spectral_materials.blender.library.asset_library import (
     register_asset_library,
     write_asset_library,
 )
-from spectral_materials.blender.library.catalogs import CATALOG_FILE, catalog_id
+from spectral_materials.blender.library.catalogs import CATALOG_FILE, asset_names, catalog_id
 from spectral_materials.core.brdf.factor import factor_brdf, resolve_parameterization
 from spectral_materials.core.brdf.factored import FactoredBRDF
 from spectral_materials.core.colour import spectra
@@ -111,6 +111,18 @@ def test_an_appended_asset_draws_as_the_material_factored_directly(clean_scene, 
         b = render_sphere(direct, incidence, illuminant, 64)
         assert (a[..., 3] > 0).sum() > 1000
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+    # As a user drops it on an object: the spectral viewport draws the appended material,
+    # and then the same object with the directly factored one.
+    from spectral_materials.blender.viewport import draw
+
+    cube = bpy.data.objects["Cube"]
+    cube.data.materials.clear()
+    cube.data.materials.append(dst.materials[0])
+    seen, _ = draw.render_camera(clean_scene, width=96, height=72)
+    storage.store_factored(dst.materials[0], direct)
+    again, _ = draw.render_camera(clean_scene, width=96, height=72)
+    assert (seen[..., 3] > 0).sum() > 500
+    np.testing.assert_allclose(seen, again, rtol=1e-5, atol=1e-6)
 
 
 def test_the_operator_writes_and_registers_the_library(clean_scene, library, tmp_path):
@@ -140,3 +152,17 @@ def test_a_folder_that_is_not_a_library_is_named_and_nothing_changes(clean_scene
     layout.write_index(empty, SETTINGS.as_dict(), [])
     with pytest.raises(layout.NotALibrary, match="no materials"):
         write_asset_library(empty)
+
+
+def test_asset_names_tell_duplicates_apart():
+    def entry(name, catalog, source):
+        return {"name": name, "catalog": catalog, "source": source}
+
+    entries = [entry("felt", "src/set1/studio/paints", "/a/felt.npz"),
+               entry("felt", "src/set2/studio/paints", "/b/felt.npz"),
+               entry("card", "src/set1/studio/paints", "/a/card.npz"),
+               entry("gold", "lib/metals", "/c/gold.npz"),
+               entry("gold", "lib/metals", "/c/gold.binary")]
+    names = asset_names(entries)
+    assert names[:3] == ["felt (set1)", "felt (set2)", "card"]
+    assert len(set(names)) == 5 and all(n.startswith("gold (") for n in names[3:])
