@@ -67,8 +67,10 @@ vec4 sm_pack_product_axes(SmLookup lookup, int pack, int axes)
     if ((axes & (1 << k)) != 0) {
       int row = k * sm.misc.y + pack;
 #if SM_FACTORS_FILTERED
-      vec4 value = texture(factor_tex,
-                           vec2(lookup.w[k], (float(row) + 0.5) / float(textureSize(factor_tex, 0).y)));
+      /* Level 0 explicitly: no implicit derivatives, whatever mip or anisotropy state. */
+      vec4 value = textureLod(
+          factor_tex, vec2(lookup.w[k], (float(row) + 0.5) / float(textureSize(factor_tex, 0).y)),
+          0.0);
 #else
       vec4 a = texelFetch(factor_tex, ivec2(lookup.i0[k], row), 0);
       vec4 b = texelFetch(factor_tex, ivec2(lookup.i1[k], row), 0);

@@ -16,6 +16,8 @@ def cmd_build(args, progress: Progress) -> int:
     from ..core.library.build import build_library
     from ..core.library.settings import LibrarySettings
 
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.workers is not None and args.scheduler:
         raise UsageError("--workers sets the local pool; a Dask cluster has its own workers")
     settings = LibrarySettings(packs=args.packs, theta_cells=args.theta_cells,

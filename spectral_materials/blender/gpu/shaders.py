@@ -142,6 +142,11 @@ class ShaderKey:
         if self.factors not in FACTOR_PRECISIONS:
             raise ValueError(f"factor precision must be one of {FACTOR_PRECISIONS}, "
                              f"got {self.factors!r}")
+        if self.factors != "exact" and not self.precontract:
+            # The per-coefficient mode reads the spectral factor from the factor texture,
+            # which only the exact precision uploads.
+            raise ValueError(f"factor precision {self.factors!r} draws pre-contracted light "
+                             "weights only; use precontract=True or the exact precision")
         if self.parameterization not in PARAMETERIZATION_CODES:
             raise ValueError(f"no shader for parameterisation {self.parameterization!r}")
         if not 1 <= self.axes <= 4:

@@ -45,6 +45,7 @@ def sixteen_bit_texture(texels: np.ndarray, texture_format: str):
     buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
     texture = gpu.types.GPUTexture((width, height), format=texture_format, data=buffer)
     if hasattr(texture, "filter_mode"):
-        # Blender 4.5 has no sampler API; its Python textures filter linearly already.
+        # Blender 4.5 and 5.0 have no sampler API; their Python textures filter linearly
+        # (tests/blender/brdf/test_factor_precision_gpu.py passes on both legs).
         texture.filter_mode(True)
     return texture

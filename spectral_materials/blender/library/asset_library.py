@@ -11,7 +11,6 @@ Browser.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -85,8 +84,8 @@ def write_asset_library(library: str | Path, blend: str | Path | None = None, *,
         raise RuntimeError("the Spectral Materials add-on is not registered: call "
                            "spectral_materials.blender.register() first")
     root = layout.open_library(library, create=False)
-    document = json.loads((root / layout.INDEX_FILE).read_text(encoding="utf-8"))
-    entries = document.get("entries", [])
+    # The entries on disk, not the index: after a build that was killed they are the truth.
+    entries = layout.read_entries(root)
     if not entries:
         raise layout.NotALibrary(f"{root}: the library has no materials to import")
     target = Path(blend) if blend is not None else root / DEFAULT_BLEND
@@ -110,7 +109,8 @@ def write_asset_library(library: str | Path, blend: str | Path | None = None, *,
 
 def register_asset_library(folder: str | Path, name: str | None = None):
     """Add ``folder`` to Preferences > File Paths > Asset Libraries (once; an entry with the
-    same folder is returned as it is). Blender saves it with the preferences."""
+    same folder is returned as it is). It lasts beyond this session when the preferences
+    are saved (Blender does so on exit when *Auto-Save Preferences* is on)."""
     folder = Path(folder).resolve()
     libraries = bpy.context.preferences.filepaths.asset_libraries
     for library in libraries:

@@ -8,6 +8,8 @@ from __future__ import annotations
 import uuid
 from pathlib import Path
 
+from ...core.library.layout import atomic_write
+
 CATALOG_FILE = "blender_assets.cats.txt"
 _NAMESPACE = uuid.UUID("6f1d3c52-4f7e-4a0e-9a55-2b1c5d0e7a11")
 
@@ -38,8 +40,21 @@ def catalog_text(paths: set[str]) -> str:
 
 
 def write_catalogs(folder: Path, paths: set[str]) -> Path:
+    """Write or extend the folder's catalog file atomically. Catalogs already there (the
+    user's own, or this library's, perhaps renamed in the Asset Browser) are kept as they
+    are; only catalogs whose UUID is missing are added."""
     target = Path(folder) / CATALOG_FILE
-    target.write_text(catalog_text(paths), encoding="utf-8")
+    if not target.is_file():
+        atomic_write(target, catalog_text(paths).encode("utf-8"))
+        return target
+    text = target.read_text(encoding="utf-8")
+    known = {line.split(":", 1)[0].strip() for line in text.splitlines()
+             if line.strip() and not line.lstrip().startswith(("#", "VERSION"))}
+    added = [line for line in catalog_text(paths).splitlines()
+             if ":" in line and not line.startswith("#") and line.split(":", 1)[0] not in known]
+    if added:
+        atomic_write(target, (text.rstrip("\n") + "\n" + "\n".join(added) + "\n")
+                     .encode("utf-8"))
     return target
 
 

@@ -97,7 +97,7 @@ class FactoredBRDF:
 
     def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
         """(N, R): per term, the product over the axes of each factor interpolated at
-        ``coords`` (``half_filtered.HalfFilteredBRDF`` looks up its GPU texture instead)."""
+        ``coords`` (``filtered_factors.FilteredFactorsBRDF`` looks up its GPU rows instead)."""
         prod = np.ones((coords.shape[0], self.terms))
         for (i0, i1, w), f in zip(self.grid.lookup(coords, self.edge), self.factors):
             f = f.astype(np.float64)

@@ -118,6 +118,11 @@ class FilteredFactorsBRDF(FactoredBRDF):
             prod *= (1.0 - w)[:, None] * table[i] + w[:, None] * table[i + 1]
         return prod
 
+    def truncated(self, packs: int) -> FactoredBRDF:
+        # The padded rows are derived data: truncate the model, then pad it again.
+        raise ValueError("truncate the model before making its 16-bit rows "
+                         "(filtered_factors(model.truncated(packs), ...))")
+
     @property
     def texture_format(self) -> str:
         return TEXTURE_FORMATS[self.encoding]

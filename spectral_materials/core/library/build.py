@@ -42,70 +42,100 @@ def build_library(sources: list[str | Path], out: str | Path,
                   callback: ProgressCallback | None = None) -> BuildReport:
     """Factor every BRDF file under ``sources`` into the library folder ``out``.
 
-    An entry whose input bytes and settings are unchanged is kept. A file that fails is
-    reported by name in the report and the index, and the others go on. ``scheduler``
-    (``tcp://host:port``) runs on that Dask cluster, else on ``workers`` local processes.
-    ``callback`` returning true cancels (:class:`Cancelled` is raised after the index is
-    written): the folder is a consistent library at every moment.
+    An entry whose input bytes and settings are unchanged is kept (its catalog follows
+    how the sources are named). A file that
+    fails (unreadable, corrupt, or killing its worker) is reported by name in the report
+    and the index, and the others go on. ``scheduler`` (``tcp://host:port``) runs on that
+    Dask cluster, else on ``workers`` local processes. ``callback`` returning true
+    cancels (:class:`Cancelled` is raised after the index is written). The folder is a
+    consistent library at every moment, and one build at a time writes it (a lock file).
     """
     started = time.perf_counter()
     settings = settings or LibrarySettings()
     files = find_sources(sources)
     root = layout.open_library(out, create=True)
-    layout.remove_partials(root)
-    current = {row["id"]: row.get("key") for row in layout.read_entries(root)}
     executor = executor_for(scheduler, workers)
     result = BuildReport(root, executor.name)
-    jobs = []
-    report(callback, 0.0, f"hashing {len(files)} files")
-    for source in files:
-        digest = file_digest(source.path)
-        key = entry_key(digest, settings)
-        if current.get(entry_id(source)) == key:
-            result.skipped.append(str(source.path))
-        else:
-            jobs.append(_job(source, digest, key, settings))
-    try:
-        if jobs:
-            with executor:
-                result.executor = executor.name
-                report(callback, 0.0, f"factoring {len(jobs)} of {len(files)} on "
-                                      f"{executor.name}")
-                for count, (job, payload, error) in enumerate(
-                        executor.run(factor_entry, jobs), start=1):
-                    _finish(root, job, payload, error, result)
-                    report(callback, count / len(jobs),
-                           f"{count}/{len(jobs)} {job.data[0].name}"
-                           + (" failed" if error else ""))
-    except Cancelled:
-        result.cancelled = True
-        raise
-    finally:
-        layout.write_index(root, settings.as_dict(), result.failed)
-        result.seconds = time.perf_counter() - started
+    with layout.build_lock(root):
+        layout.remove_partials(root)
+        current = {row["id"]: (row.get("key"), row.get("catalog"))
+                   for row in layout.read_entries(root)}
+        try:
+            jobs = _jobs_to_run(files, settings, current, result, callback)
+            if jobs:
+                with executor:
+                    result.executor = executor.name
+                    report(callback, 0.0, f"factoring {len(jobs)} of {len(files)} on "
+                                          f"{executor.name}")
+                    for count, (job, payload, error) in enumerate(
+                            executor.run(factor_entry, jobs), start=1):
+                        _finish(root, job, payload, error, result)
+                        report(callback, count / len(jobs),
+                               f"{count}/{len(jobs)} {job.data[0].name}"
+                               + (" failed" if error else ""))
+        except Cancelled:
+            result.cancelled = True
+            raise
+        finally:
+            layout.write_index(root, settings.as_dict(), result.failed)
+            result.seconds = time.perf_counter() - started
     return result
+
+
+def _jobs_to_run(files: list[SourceFile], settings: LibrarySettings, current: dict,
+                 result: BuildReport, callback: ProgressCallback | None) -> list[Job]:
+    """The files whose entry is missing or out of date, hashed; the rest are skipped."""
+    jobs = []
+    for count, source in enumerate(files):
+        report(callback, 0.0, f"hashing {count + 1}/{len(files)} {source.name}")
+        try:
+            digest = file_digest(source.path)
+        except OSError as exc:             # vanished or unreadable since it was found
+            _fail(result, source, exc)
+            continue
+        key = entry_key(digest, settings)
+        known_key, known_catalog = current.get(entry_id(source), (None, None))
+        if known_key != key:
+            jobs.append(_job(source, digest, key, settings))
+            continue
+        if known_catalog != source.catalog:
+            # The sources were named from another folder: the factors stand, the catalog
+            # (and the path it shows) follow.
+            layout.update_entry(result.library / layout.MATERIALS / entry_id(source),
+                                catalog=source.catalog, source=str(source.path))
+        result.skipped.append(str(source.path))
+    return jobs
+
+
+def _fail(result: BuildReport, source: SourceFile, error: BaseException) -> None:
+    message = " ".join(str(error).split()) or type(error).__name__
+    if source.name not in message:
+        message = f"{type(error).__name__}: {message}"
+    result.failed.append({"source": str(source.path), "error": message})
 
 
 def _finish(root: Path, job: Job, payload: dict | None, error: BaseException | None,
             result: BuildReport) -> None:
     source, digest, key = job.data
     if error is not None:
-        message = " ".join(str(error).split()) or type(error).__name__
-        if source.name not in message:
-            message = f"{type(error).__name__}: {message}"
-        result.failed.append({"source": str(source.path), "error": message})
+        _fail(result, source, error)
+        return
+    try:
+        file_bytes = source.path.stat().st_size
+    except OSError as exc:
+        _fail(result, source, exc)
         return
     row = {**payload["row"], "name": source.name, "catalog": source.catalog,
            "source": str(source.path), "format": READERS[source.path.suffix.lower()][0],
-           "file_bytes": source.path.stat().st_size, "input_sha256": digest, "key": key,
+           "file_bytes": file_bytes, "input_sha256": digest, "key": key,
            "files": [FACTORS_FILE, THUMBNAIL_FILE]}
     if layout.write_entry(root, entry_id(source), payload["files"], row):
         result.written.append(entry_id(source))
 
 
 def entry_id(source: SourceFile) -> str:
-    """A source's entry folder: its name, and a hash of where it sits in the catalogs (two
-    files of the same name in different folders are two entries; a file whose content
-    changes keeps its entry, which is replaced)."""
-    where = f"{source.catalog}/{source.name}{source.path.suffix.lower()}"
+    """A source's entry folder: its name and a hash of its resolved path. However the
+    sources are spelled on the command line, a file keeps its entry (replaced when its
+    content, the settings or its catalog change); two files of one name are two entries."""
+    where = str(source.path.resolve())
     return f"{slug(source.name)}-{hashlib.sha1(where.encode()).hexdigest()[:10]}"

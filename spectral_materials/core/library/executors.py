@@ -5,9 +5,9 @@ with at most ``2 × workers`` jobs in flight, so the file bytes a job carries ar
 only when it is submitted (memory stays in proportion to the jobs running).
 
 - :class:`LocalPool`: ``concurrent.futures.ProcessPoolExecutor`` (spawned processes, so
-  the same on Linux, macOS and Windows). A worker that dies breaks the pool; the pool
-  is started again and the jobs that had not finished are submitted again
-  (``MAX_POOL_RESTARTS`` times).
+  the same on Linux, macOS and Windows). A worker that dies breaks the pool; the jobs it
+  held run again one at a time, so the one that kills its worker is found and fails
+  alone. A cancel terminates the workers.
 - :class:`DaskCluster`: ``distributed.Client`` on a scheduler address. The scheduler
   itself runs a dead worker's tasks again on the others; a task whose scattered input
   died with its worker is submitted again (``MAX_TASK_ATTEMPTS``). Dask is needed only
@@ -16,6 +16,7 @@ only when it is submitted (memory stays in proportion to the jobs running).
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import multiprocessing
 import os
@@ -27,8 +28,6 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
-#: Times a local pool is started again after a worker died, before the jobs fail.
-MAX_POOL_RESTARTS = 3
 #: Seconds to wait for a Dask scheduler to answer.
 CONNECT_TIMEOUT = 10.0
 #: Times a Dask task is submitted again after the cluster (not its input) failed it.
@@ -55,10 +54,12 @@ class SchedulerUnreachable(OSError):
 
 
 class LocalPool:
-    """Jobs on ``workers`` local processes (default: the CPUs, at least 1)."""
+    """Jobs on ``workers`` local processes (default: the CPUs)."""
 
     def __init__(self, workers: int | None = None):
-        self.workers = max(1, int(workers or os.cpu_count() or 1))
+        if workers is not None and int(workers) < 1:
+            raise ValueError(f"workers must be at least 1, got {workers}")
+        self.workers = int(workers or os.cpu_count() or 1)
         self.name = f"local pool, {self.workers} worker{'s' * (self.workers != 1)}"
 
     def __enter__(self):
@@ -72,36 +73,70 @@ class LocalPool:
             yield from self._run(fn, jobs)
 
     def _run(self, fn: Callable, jobs: list[Job]) -> Iterator[Outcome]:
-        pending = list(jobs)[::-1]
-        restarts = 0
-        while pending:
-            context = multiprocessing.get_context("spawn")
+        """A worker that dies breaks the pool and every job in it. Those jobs then run one
+        at a time in a new pool: one that breaks it alone is the culprit and fails (it
+        never takes the others down again); the rest run as usual."""
+        pending = collections.deque(jobs)
+        suspects: collections.deque = collections.deque()
+        isolated: set[int] = set()
+        context = multiprocessing.get_context("spawn")
+        while pending or suspects:
             pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=context,
                                        initializer=_ignore_ctrl_c)
             running: dict = {}
+            finished = alone = False
             try:
-                while pending or running:
-                    while pending and len(running) < 2 * self.workers:
-                        job = pending.pop()
-                        running[pool.submit(fn, *job.load())] = job
+                while pending or suspects or running:
+                    # Isolating while suspects wait or one runs (never beside other jobs).
+                    alone = bool(suspects) or any(id(j) in isolated for j in running.values())
+                    source = suspects if alone else pending
+                    limit = 1 if alone else 2 * self.workers
+                    while source and len(running) < limit:
+                        job = source[0]
+                        try:
+                            args = job.load()
+                        except OSError as exc:      # vanished or unreadable since hashing
+                            source.popleft()
+                            yield job, None, exc
+                            continue
+                        future = pool.submit(fn, *args)   # BrokenProcessPool: job stays
+                        source.popleft()
+                        running[future] = job
+                    if not running:
+                        continue
                     done, _ = wait(running, return_when=FIRST_COMPLETED)
+                    broken = False
                     for future in done:
                         error = future.exception()
                         if isinstance(error, BrokenProcessPool):
-                            raise error           # the job stays in running: rerun below
+                            broken = True               # the job stays in running
+                            continue
                         job = running.pop(future)
                         yield job, (None if error else future.result()), error
+                    if broken:
+                        raise BrokenProcessPool()
+                finished = True
             except BrokenProcessPool:
-                restarts += 1
-                # Every job still running is lost with the pool: run them again.
-                pending.extend(running.values())
-                if restarts > MAX_POOL_RESTARTS:
-                    for job in pending:
-                        yield job, None, RuntimeError(
-                            f"{job.label}: a worker process died {restarts} times")
-                    pending = []
+                lost = list(running.values())
+                if alone and len(lost) == 1:
+                    yield lost[0], None, RuntimeError(
+                        f"{lost[0].label}: its worker process died while factoring it (out "
+                        "of memory, or a crash in a native library)")
+                else:
+                    suspects.extend(lost)
+                    isolated.update(id(job) for job in lost)
             finally:
-                pool.shutdown(wait=False, cancel_futures=True)
+                if not finished:
+                    _terminate(pool)
+                pool.shutdown(wait=finished, cancel_futures=True)
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    """Stop the pool's processes now: work already running would otherwise go on after a
+    cancel (the workers ignore Ctrl-C) and delay the exit by whole factorisations."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
 
 
 #: The variables NumPy's BLAS and OpenMP read for their thread count.
@@ -150,36 +185,53 @@ class DaskCluster:
         except (OSError, TimeoutError) as exc:
             raise SchedulerUnreachable(
                 f"the Dask scheduler at {self.address} cannot be reached: {exc}") from None
-        workers = len(self.client.scheduler_info().get("workers", {}))
-        self.name = f"Dask cluster at {self.address}, {workers} workers"
+        threads = self._threads()
+        self.name = (f"Dask cluster at {self.address}, {len(threads)} workers, "
+                     f"{sum(threads.values())} threads")
         return self
 
     def __exit__(self, *exc) -> None:
         if self.client is not None:
             self.client.close()
 
+    def _threads(self) -> dict[str, int]:
+        """Worker address → threads, as the scheduler knows them now."""
+        workers = self.client.scheduler_info().get("workers", {})
+        return {address: max(1, int(info.get("nthreads", 1)))
+                for address, info in workers.items()}
+
     def run(self, fn: Callable, jobs: list[Job]) -> Iterator[Outcome]:
+        """At most two tasks per worker thread in flight (recounted as workers come and
+        go); each file's bytes are placed on the worker with the fewest tasks, and its
+        task asks for that worker, so the work spreads over the cluster."""
         from distributed import as_completed
 
-        workers = max(1, len(self.client.scheduler_info().get("workers", {})))
-        pending = list(jobs)[::-1]
+        pending = collections.deque(jobs)
         attempts: dict[int, int] = {}
         running: dict = {}
         completed = as_completed()
 
-        def submit() -> None:
-            while pending and len(running) < 2 * workers:
-                job = pending.pop()
-                name, suffix, data, settings = job.load()
-                # Scattered first: large file bytes travel to a worker, not in the graph.
-                remote = self._scatter(data)
-                future = self.client.submit(fn, name, suffix, remote, settings, pure=False)
-                running[future.key] = (job, future)
+        def submit() -> Iterator[Outcome]:
+            threads = self._threads()
+            load = collections.Counter(where for _, _, where in running.values())
+            while pending and threads and len(running) < 2 * sum(threads.values()):
+                job = pending.popleft()
+                try:
+                    name, suffix, data, settings = job.load()
+                except OSError as exc:          # vanished or unreadable since hashing
+                    yield job, None, exc
+                    continue
+                where = min(threads, key=lambda a: load[a] / threads[a])
+                load[where] += 1
+                remote = self._scatter(data, where)
+                future = self.client.submit(fn, name, suffix, remote, settings, pure=False,
+                                            workers=[where], allow_other_workers=True)
+                running[future.key] = (job, future, where)
                 completed.add(future)
 
-        submit()
+        yield from submit()
         for future in completed:
-            job, _ = running.pop(future.key)
+            job, _, _ = running.pop(future.key)
             try:
                 result, error = future.result(), None
             except Exception as exc:        # the task's own error, or the cluster's
@@ -189,17 +241,18 @@ class DaskCluster:
                 # A dead worker took the task or its scattered bytes: run it again.
                 attempts[id(job)] = attempts.get(id(job), 0) + 1
                 if attempts[id(job)] <= MAX_TASK_ATTEMPTS:
-                    pending.append(job)
-                    submit()
+                    pending.appendleft(job)
+                    yield from submit()
                     continue
             yield job, result, error
-            submit()
+            yield from submit()
 
-    def _scatter(self, data: bytes):
-        """``data`` on a worker; retried while the scheduler still names a dead one."""
+    def _scatter(self, data: bytes, worker: str):
+        """``data`` on ``worker`` (or another, while the scheduler still names a dead one)."""
         for attempt in range(SCATTER_ATTEMPTS):
             try:
-                [remote] = self.client.scatter([data], hash=False)
+                [remote] = self.client.scatter([data], hash=False,
+                                               workers=[worker] if attempt == 0 else None)
                 return remote
             except OSError:                 # CommClosedError: that worker just died
                 if attempt == SCATTER_ATTEMPTS - 1:
@@ -210,7 +263,11 @@ class DaskCluster:
 
 def _cluster_error(error: BaseException) -> bool:
     """Whether a task failed because of the cluster (a worker died, data was lost), not
-    because of its input: distributed's own exceptions, cancellations, lost connections."""
+    because of its input: distributed's own exceptions, cancellations, lost connections.
+    ``KilledWorker`` is final: the scheduler has already run the task on several workers
+    and each died, so the input itself kills them."""
+    if type(error).__name__ == "KilledWorker":
+        return False
     return (type(error).__module__.split(".")[0] == "distributed"
             or isinstance(error, OSError | CancelledError | TimeoutError))
 

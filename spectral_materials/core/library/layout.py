@@ -6,14 +6,17 @@
     LIB/index.md                  the same as a Markdown table
     LIB/materials/<id>/           one entry: factors.npz, thumbnail.png, entry.json
 
-An entry is written into ``materials/.partial-<id>-<random>`` and renamed into place,
-so ``materials/<id>`` is always complete; the index files are replaced by rename. A
-build that dies leaves at most a ``.partial-`` folder, which the next build removes.
-The index is made from the entries on disk, so it never names one that is not there.
+An entry is written into ``materials/.partial-<id>-<random>`` (each file flushed to disk)
+and renamed into place, so ``materials/<id>`` is always complete; the index files are
+replaced by rename, and a new library's index is written before anything else. A build
+that dies leaves at most a ``.partial-`` folder, which the next build removes. The index
+is made from the entries on disk, so it never names one that is not there. One build at
+a time holds ``.build.lock`` (:func:`build_lock`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -28,12 +31,17 @@ INDEX_FILE = "library.json"
 MARKDOWN_FILE = "index.md"
 MATERIALS = "materials"
 ENTRY_FILE = "entry.json"
+LOCK_FILE = ".build.lock"
 _PARTIAL = ".partial-"
 _STALE = ".stale-"
 
 
 class NotALibrary(InvalidBRDFData):
     """A folder given as a library that is not one (the message names it)."""
+
+
+class LibraryBusy(OSError):
+    """Another build holds the library's lock (the message names its process)."""
 
 
 def atomic_write(path: Path, data: bytes) -> None:
@@ -52,8 +60,10 @@ def atomic_write(path: Path, data: bytes) -> None:
 
 
 def open_library(root: str | Path, *, create: bool) -> Path:
-    """The library folder ``root``: created (with ``create``) when missing or empty;
-    NotALibrary when it holds other things, or (reading) has no readable index."""
+    """The library folder ``root``. With ``create``, a missing or empty folder becomes an
+    empty library at once (its index written before anything else), and so does one
+    holding only what a first build stopped before its index left (``materials/``, dot
+    files). NotALibrary when it holds other things, or (reading) has no readable index."""
     root = Path(root)
     index = root / INDEX_FILE
     if index.is_file():
@@ -70,11 +80,53 @@ def open_library(root: str | Path, *, create: bool) -> Path:
     if not create:
         raise NotALibrary(f"{root}: not a spectral material library (no {INDEX_FILE}); "
                           "build one with: python -m spectral_materials library build")
-    if root.exists() and (not root.is_dir() or any(root.iterdir())):
+    if root.exists() and (not root.is_dir() or any(
+            p.name != MATERIALS and not p.name.startswith(".") for p in root.iterdir())):
         raise NotALibrary(f"{root}: not a spectral material library (no {INDEX_FILE}) and "
                           "not empty; give a new or empty folder")
     (root / MATERIALS).mkdir(parents=True, exist_ok=True)
+    write_index(root, {}, [])
     return root
+
+
+@contextlib.contextmanager
+def build_lock(root: Path):
+    """One build at a time: ``.build.lock`` holds the building process's pid. A lock whose
+    process is gone (killed) is taken over; a live one is refused, naming its pid."""
+    lock = root / LOCK_FILE
+    for _ in range(2):
+        try:
+            handle = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+        except FileExistsError:
+            try:
+                pid = int(lock.read_text().strip() or 0)
+            except (OSError, ValueError):
+                pid = 0
+            if pid and _alive(pid):
+                raise LibraryBusy(f"{root}: another build (process {pid}) is writing this "
+                                  "library; wait for it, or remove "
+                                  f"{LOCK_FILE} if that process is gone") from None
+            lock.unlink(missing_ok=True)
+            continue
+        with os.fdopen(handle, "w") as out:
+            out.write(str(os.getpid()))
+        break
+    else:
+        raise LibraryBusy(f"{root}: could not take {LOCK_FILE}")
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def remove_partials(root: Path) -> int:
@@ -97,10 +149,13 @@ def write_entry(root: Path, entry_id: str, files: dict[str, bytes], row: dict) -
         return False
     partial = Path(tempfile.mkdtemp(prefix=f"{_PARTIAL}{entry_id}-", dir=materials))
     try:
-        for name, data in files.items():
-            (partial / name).write_bytes(data)
-        (partial / ENTRY_FILE).write_text(json.dumps(row, indent=1, sort_keys=True),
-                                          encoding="utf-8")
+        # Flushed to disk before the rename: after a power loss an entry is whole or absent.
+        for name, data in {**files, ENTRY_FILE: json.dumps(row, indent=1, sort_keys=True)
+                           .encode("utf-8")}.items():
+            with open(partial / name, "wb") as out:
+                out.write(data)
+                out.flush()
+                os.fsync(out.fileno())
         if target.exists():
             # An out-of-date entry: moved aside, then replaced. In between the entry is
             # missing, never half written.
@@ -114,6 +169,13 @@ def write_entry(root: Path, entry_id: str, files: dict[str, bytes], row: dict) -
         shutil.rmtree(partial, ignore_errors=True)
         raise
     return True
+
+
+def update_entry(folder: Path, **fields) -> None:
+    """Rewrite fields of an entry's row (not its files), atomically."""
+    row = json.loads((folder / ENTRY_FILE).read_text(encoding="utf-8"))
+    row.update(fields)
+    atomic_write(folder / ENTRY_FILE, json.dumps(row, indent=1, sort_keys=True).encode())
 
 
 def read_entry(folder: Path) -> dict | None:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..formats.brdf_files import READERS
+from .layout import INDEX_FILE
 
 
 @dataclass(frozen=True)
@@ -33,8 +34,14 @@ def find_sources(sources: list[str | Path]) -> list[SourceFile]:
                 raise ValueError(f"{root}: not a BRDF file ({', '.join(READERS)})")
             candidates, base = [root], root.parent
         else:
-            candidates = sorted(p for p in root.rglob("*")
-                                if p.is_file() and p.suffix.lower() in READERS)
+            # Libraries under a source (one built into a folder it reads) are not read
+            # back, nor hidden files and folders.
+            libraries = {index.parent for index in root.rglob(INDEX_FILE)}
+            candidates = sorted(
+                p for p in root.rglob("*")
+                if p.is_file() and p.suffix.lower() in READERS
+                and not any(part.startswith(".") for part in p.relative_to(root).parts)
+                and not libraries.intersection(p.parents))
             base = root
         top = base.resolve().name or "sources"
         for path in candidates:

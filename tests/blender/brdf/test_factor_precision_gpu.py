@@ -88,6 +88,13 @@ def test_unknown_precision_is_refused(factored):
         render_sphere(factored("io"), 0.0, "D65", 8, factors="fp8")
 
 
+def test_fast_precisions_refuse_the_per_coefficient_mode(factored):
+    """That mode reads the spectral factor from the factor texture, which the 16-bit
+    paths do not upload."""
+    with pytest.raises(ValueError, match="pre-contracted"):
+        render_sphere(factored("io"), 0.0, "D65", 8, factors="unorm16", precontract=False)
+
+
 def test_drawn_model_of_exact_is_the_model(factored):
     model = factored("io")
     assert drawn_model(model, "exact") is model

@@ -166,3 +166,28 @@ def test_asset_names_tell_duplicates_apart():
     names = asset_names(entries)
     assert names[:3] == ["felt (set1)", "felt (set2)", "card"]
     assert len(set(names)) == 5 and all(n.startswith("gold (") for n in names[3:])
+
+
+def test_the_users_catalogs_are_kept(clean_scene, library, tmp_path):
+    target = tmp_path / "assets"
+    target.mkdir()
+    mine = "0b6c9c54-0000-4000-8000-000000000001:my things/chairs:my things-chairs"
+    renamed = f"{catalog_id('src/merl')}:Measured/MERL:Measured-MERL"
+    (target / CATALOG_FILE).write_text(f"VERSION 1\n\n{mine}\n{renamed}\n")
+    write_asset_library(library, target / "spectral.blend")
+    lines = (target / CATALOG_FILE).read_text().splitlines()
+    assert mine in lines and renamed in lines              # kept, the rename too
+    assert sum(line.startswith(catalog_id("src/merl")) for line in lines) == 1
+    assert any(line.startswith(catalog_id("src/rgl")) for line in lines)
+
+
+def test_import_reads_the_entries_on_disk(clean_scene, library, tmp_path):
+    """After a build that was killed, the index may lag the entries: import trusts the disk."""
+    import shutil
+
+    copy = tmp_path / "lib"
+    shutil.copytree(library, copy)
+    index = json.loads((copy / layout.INDEX_FILE).read_text())
+    index["entries"] = index["entries"][:3]
+    (copy / layout.INDEX_FILE).write_text(json.dumps(index))
+    assert write_asset_library(copy).materials == 10

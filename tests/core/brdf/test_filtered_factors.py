@@ -111,21 +111,27 @@ def test_quantisation_costs_one_step_per_factor(encoding, step):
 
 
 def test_eight_bit_weights_step_between_cells():
-    """One axis of 2 cells holding 0 and 1: the value moves in steps of 1/256."""
+    """One axis of 2 cells holding 0 and 1: with 8-bit weights the value moves in steps of
+    1/256 (rounded to the nearest), with float weights it is the exact fraction."""
     _, model = _model("lambert", packs=1, albedo=0.5)
     axis = model.grid.parameterization.axes[1]                  # θo, not a horizon
-    n = 2
-    model = type(model)(**{**{k: getattr(model, k) for k in FactoredBRDF.__dataclass_fields__},
-                           "resolution": (1, n, 1)})
+    fields = {k: getattr(model, k) for k in FactoredBRDF.__dataclass_fields__}
+    model = FactoredBRDF(**{**fields, "resolution": (1, 2, 1)})
     model.factors = [np.ones((1, 1)), np.array([[0.0], [1.0]]), np.ones((1, 1))]
     model.spectral = np.ones((model.spectral_size, 1))
-    coords = np.zeros((4, 3))
-    x = np.array([0.0, 0.3, 1 / 512 - 1e-9, 0.999])            # cell coordinates
-    coords[:, 1] = axis.from_unit((x + 0.5) / n) if hasattr(axis, "from_unit") else \
-        axis.lo + (x + 0.5) / n * axis.span
-    fast = filtered_factors(model, "half", weight_bits=8)
-    values = fast._angular_terms(coords)[:, 0]
-    np.testing.assert_allclose(values, [0.0, 77 / 256, 0.0, 1.0], atol=1e-3)
+    w = np.array([0.0, 0.3, 1 / 512 - 1e-6, 1 / 512 + 1e-6, 0.999, 100.5 / 256])
+    coords = np.zeros((len(w), 3))
+    coords[:, 1] = axis.lo + (w + 0.5) / 2 * axis.span          # cell coordinate x = w
+    stepped = filtered_factors(model, "half", weight_bits=8)._angular_terms(coords)[:, 0]
+    exact = filtered_factors(model, "half", weight_bits=None)._angular_terms(coords)[:, 0]
+    np.testing.assert_allclose(stepped, [0, 77 / 256, 0, 1 / 256, 1, 101 / 256], atol=1e-12)
+    np.testing.assert_allclose(exact, w, atol=1e-12)
+
+
+def test_truncating_the_rows_is_refused():
+    _, model = _model("ggx", packs=2, alpha_x=0.3, alpha_y=0.3)
+    with pytest.raises(ValueError, match="truncate the model"):
+        filtered_factors(model).truncated(1)
 
 
 @pytest.mark.parametrize("name,params,bound", [

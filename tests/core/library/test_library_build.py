@@ -201,3 +201,97 @@ def test_absurd_settings_are_refused():
     for bad in ({"packs": 0}, {"theta_cells": 1000}, {"basis": -1}, {"thumbnail_size": 4}):
         with pytest.raises(ValueError):
             LibrarySettings(**bad)
+
+
+def _die_always(marker: str, value: int) -> int:
+    """Value 3 kills its worker every time (a file that takes its worker down)."""
+    if value == 3:
+        os._exit(1)
+    return value * 10
+
+
+def test_a_file_that_always_kills_its_worker_fails_alone(tmp_path):
+    jobs = [Job(str(v), lambda v=v: ("", v), v) for v in range(8)]
+    results = {job.data: (value, error) for job, value, error in
+               LocalPool(2).run(_die_always, jobs)}
+    assert set(results) == set(range(8))
+    assert isinstance(results[3][1], RuntimeError) and "died" in str(results[3][1])
+    assert {k: v for k, (v, e) in results.items() if k != 3} == \
+        {v: v * 10 for v in range(8) if v != 3}
+
+
+def test_a_file_that_vanishes_before_its_job_is_named(tmp_path):
+    gone = tmp_path / "gone.npz"
+    gone.write_bytes(b"x")
+    jobs = [Job("gone", lambda: gone.read_bytes(), 0)]
+    gone.unlink()
+    [(job, value, error)] = list(LocalPool(1).run(_die_once, jobs))
+    assert value is None and isinstance(error, FileNotFoundError)
+    with pytest.raises(ValueError, match="at least 1"):
+        LocalPool(0)
+
+
+def test_a_first_build_stopped_before_its_index_can_be_resumed(sources, tmp_path):
+    lib = tmp_path / "lib"
+    (lib / layout.MATERIALS / ".partial-x-1").mkdir(parents=True)   # killed at once
+    result = build_library([sources / "rgl"], lib, SETTINGS, workers=1)
+    assert len(result.written) == 1
+    # a new library has its (empty) index before anything is factored
+    fresh = tmp_path / "fresh"
+    layout.open_library(fresh, create=True)
+    assert json.loads((fresh / layout.INDEX_FILE).read_text())["entries"] == []
+
+
+def test_one_build_at_a_time(sources, tmp_path):
+    lib = tmp_path / "lib"
+    layout.open_library(lib, create=True)
+    with layout.build_lock(lib):
+        with pytest.raises(layout.LibraryBusy, match=str(os.getpid())):
+            build_library([sources / "rgl"], lib, SETTINGS, workers=1)
+    (lib / layout.LOCK_FILE).write_text("999999999")       # a build that was killed
+    assert build_library([sources / "rgl"], lib, SETTINGS, workers=1).written
+    assert not (lib / layout.LOCK_FILE).exists()
+
+
+def test_ids_do_not_depend_on_how_sources_are_named(sources, tmp_path):
+    lib = tmp_path / "lib"
+    first = build_library([sources / "studio", sources / "merl"], lib, SETTINGS, workers=2)
+    again = build_library([sources], lib, SETTINGS, workers=2)
+    # the same files keep their entries (not factored again); their catalogs follow
+    assert len(again.skipped) == len(first.written) == 9
+    assert [w.split("-")[0] for w in again.written] == ["fabric"]
+    assert len(_entry_folders(lib)) == 10
+    index = json.loads((lib / layout.INDEX_FILE).read_text())
+    assert {e["catalog"] for e in index["entries"]} == {"src/studio/paints", "src/merl",
+                                                        "src/rgl"}
+    twin = tmp_path / "other" / "merl"
+    twin.mkdir(parents=True)
+    (twin / "red plastic.binary").write_bytes(
+        (sources / "merl" / "red plastic.binary").read_bytes())
+    both = build_library([sources, tmp_path / "other"], lib, SETTINGS, workers=2)
+    assert len(both.written) == 1 and len(_entry_folders(lib)) == 11
+
+
+def test_a_library_inside_a_source_folder_is_not_read_back(sources):
+    inside = sources / "built"
+    build_library([sources / "rgl"], inside, SETTINGS, workers=1)
+    result = build_library([sources], inside, SETTINGS, workers=2)
+    assert not result.failed and len(result.written) == 9 and len(result.skipped) == 1
+
+
+def test_an_unreadable_file_is_named_and_the_rest_go_on(sources, tmp_path, monkeypatch):
+    """A file the build may not read (injected: the tests run as root, who reads any file)."""
+    from spectral_materials.core.library import build
+
+    real = build.file_digest
+
+    def digest(path):
+        if Path(path).name == "red clay.npz":
+            raise PermissionError(13, "Permission denied", str(path))
+        return real(path)
+
+    monkeypatch.setattr(build, "file_digest", digest)
+    result = build_library([sources], tmp_path / "lib", SETTINGS, workers=2)
+    assert len(result.written) == 9
+    assert [Path(f["source"]).name for f in result.failed] == ["red clay.npz"]
+    assert "Permission denied" in result.failed[0]["error"]
