@@ -87,7 +87,7 @@ def _jobs_to_run(files: list[SourceFile], settings: LibrarySettings, current: di
     """The files whose entry is missing or out of date, hashed; the rest are skipped."""
     jobs = []
     for count, source in enumerate(files):
-        report(callback, 0.0, f"hashing {count + 1}/{len(files)} {source.name}")
+        report(callback, 0.0, f"hashing {source.name} ({count + 1} of {len(files)})")
         try:
             digest = file_digest(source.path)
         except OSError as exc:             # vanished or unreadable since it was found
