@@ -201,9 +201,9 @@ class DaskCluster:
                 for address, info in workers.items()}
 
     def run(self, fn: Callable, jobs: list[Job]) -> Iterator[Outcome]:
-        """At most two tasks per worker thread in flight (recounted as workers come and
-        go); each file's bytes are placed on the worker with the fewest tasks, and its
-        task asks for that worker, so the work spreads over the cluster."""
+        """One task per worker thread in flight (recounted as workers come and go); each
+        file's bytes are placed on the worker with the most free threads, and its task asks
+        for that worker, so the work spreads over the cluster."""
         from distributed import as_completed
 
         pending = collections.deque(jobs)
@@ -214,7 +214,9 @@ class DaskCluster:
         def submit() -> Iterator[Outcome]:
             threads = self._threads()
             load = collections.Counter(where for _, _, where in running.values())
-            while pending and threads and len(running) < 2 * sum(threads.values()):
+            # One task per worker thread: a task queued on a busy worker could wait behind a
+            # long one (an RGL file) while another worker idles.
+            while pending and threads and len(running) < sum(threads.values()):
                 job = pending.popleft()
                 try:
                     name, suffix, data, settings = job.load()
