@@ -31,6 +31,7 @@ Usage::
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -89,6 +90,20 @@ def _timed_build(sources: Path, out: Path, settings: LibrarySettings, **kw) -> d
     return {"executor": result.executor, "seconds": seconds, "written": len(result.written)}
 
 
+@contextlib.contextmanager
+def _environ_restored():
+    """A LocalCluster's nannies write their workers' environment (OMP_NUM_THREADS=1,
+    MALLOC_TRIM_THRESHOLD_) into this process's ``os.environ`` and leave it there
+    (distributed 2026.8.0): every later cluster's workers, and this process's own
+    threads, would inherit it."""
+    saved = dict(os.environ)
+    try:
+        yield
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+
+
 def throughput(sources: Path, tmp: Path, settings: LibrarySettings) -> tuple[list[dict], Path]:
     import dask
     from distributed import LocalCluster
@@ -99,7 +114,8 @@ def throughput(sources: Path, tmp: Path, settings: LibrarySettings) -> tuple[lis
     rows.append(_timed_build(sources, tmp / "pool1", settings, workers=1))
     rows.append(_timed_build(sources, tmp / "pool2", settings, workers=2))
     for label, environ in DASK_ENVIRONMENTS.items():
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), \
+        with _environ_restored(), \
+                dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), \
                 LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                              dashboard_address=None) as cluster:
             row = _timed_build(sources, tmp / f"dask-{len(rows)}", settings,
