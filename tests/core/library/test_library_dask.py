@@ -28,9 +28,16 @@ SETTINGS = LibrarySettings(packs=1, theta_cells=8, basis=4, thumbnail_size=24)
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as local:
-        yield local
+    # The nannies leave their workers' environment (OMP_NUM_THREADS=1, ...) in this
+    # process's os.environ; later tests must not inherit it.
+    saved = dict(os.environ)
+    try:
+        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as local:
+            yield local
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
 
 
 @pytest.fixture(scope="module")
