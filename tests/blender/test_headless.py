@@ -73,7 +73,7 @@ def test_every_property_has_a_tooltip():
 def test_operators_have_descriptions():
     operators = [cls for package in addon.PACKAGES for cls in package.CLASSES
                  if issubclass(cls, bpy.types.Operator)]
-    assert len(operators) == 10
+    assert len(operators) == 11
     for cls in operators:
         assert cls.__doc__ and cls.bl_idname.startswith("spectral.")
 
