@@ -43,12 +43,12 @@ def build_library(sources: list[str | Path], out: str | Path,
     """Factor every BRDF file under ``sources`` into the library folder ``out``.
 
     An entry whose input bytes and settings are unchanged is kept (its catalog follows
-    how the sources are named). A file that
-    fails (unreadable, corrupt, or killing its worker) is reported by name in the report
-    and the index, and the others go on. ``scheduler`` (``tcp://host:port``) runs on that
-    Dask cluster, else on ``workers`` local processes. ``callback`` returning true
-    cancels (:class:`Cancelled` is raised after the index is written). The folder is a
-    consistent library at every moment, and one build at a time writes it (a lock file).
+    how the sources are named). A file that fails (unreadable, corrupt, or killing its
+    worker) is reported by name in the report and the index, and the others go on.
+    ``scheduler`` (``tcp://host:port``) runs on that Dask cluster, else on ``workers``
+    local processes. ``callback`` returning true cancels (:class:`Cancelled` is raised
+    after the index is written). The folder is a consistent library at every moment,
+    and one build at a time writes it (a lock file).
     """
     started = time.perf_counter()
     settings = settings or LibrarySettings()
