@@ -2,8 +2,9 @@
 /* Spectral PRT, vertex stage (the spectral PRT paper's inner sum): the spectral
  * irradiance coefficients Ê_j = Σ_k T̃_k L̃_kj of this vertex. T̃ (K SH values per
  * vertex, padded to texels of 4) comes from transfer_tex, texel v·SM_PRT_TEXELS + i laid
- * out row by row sm.sizes.x wide; L̃ from environment_tex, one row per SH coefficient
- * and SM_PRT_VEC4 texels of spectral coefficients per row (turned into the object's
+ * out row by row sm.sizes.x wide; L̃, per-draw constant, from the uniform buffer sm_env
+ * (SM_PRT_ENV_BUFFER) or else environment_tex: one row per SH coefficient and
+ * SM_PRT_VEC4 texels of spectral coefficients per row (turned into the object's
  * frame and divided by the world frame's white Y on the CPU). Mirrors
  * spectral_materials/core/prt/transfer.py irradiance(). */
 
@@ -19,7 +20,11 @@ void main()
     vec4 transfer = texelFetch(transfer_tex, ivec2(t % sm.sizes.x, t / sm.sizes.x), 0);
     for (int c = 0; c < 4; c++) {
       for (int b = 0; b < SM_PRT_VEC4; b++) {
+#if SM_PRT_ENV_BUFFER
+        e[b] += transfer[c] * sm_env.texels[(4 * i + c) * SM_PRT_VEC4 + b];
+#else
         e[b] += transfer[c] * texelFetch(environment_tex, ivec2(b, 4 * i + c), 0);
+#endif
       }
     }
   }

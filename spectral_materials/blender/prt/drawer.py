@@ -63,6 +63,8 @@ class PRTShaderKey:
     coefficients: int           # spectral basis size (3 for RGB PRT)
     rgb: bool = False
     output: str = "DISPLAY"
+    #: L̃ in the uniform buffer ``sm_env`` (:func:`environment_fits`), else the texture.
+    environment_buffer: bool = True
 
     @property
     def texels(self) -> int:
@@ -71,6 +73,11 @@ class PRTShaderKey:
     @property
     def vec4s(self) -> int:
         return -(-self.coefficients // 4)
+
+    @property
+    def environment_texels(self) -> int:
+        """vec4s of L̃ (:func:`environment_texels`): 4⌈K/4⌉ rows of ⌈m/4⌉."""
+        return 4 * self.texels * self.vec4s
 
     @property
     def albedo_layers(self) -> int:
@@ -82,6 +89,7 @@ class PRTShaderKey:
         return {"SM_PRT_TEXELS": str(self.texels), "SM_PRT_COEFFS": str(self.coefficients),
                 "SM_PRT_VEC4": str(self.vec4s), "SM_PRT_RGB": "1" if self.rgb else "0",
                 "SM_PRT_LAYERS": str(self.albedo_layers),
+                "SM_PRT_ENV_BUFFER": "1" if self.environment_buffer else "0",
                 **output_defines(PRT_OUTPUTS[self.output])}
 
     def validate(self) -> None:
@@ -90,6 +98,17 @@ class PRTShaderKey:
                              f"coefficients, got {self.coefficients}")
         if self.output not in PRT_OUTPUTS:
             raise ValueError(f"unknown output {self.output!r}")
+        if self.environment_buffer and not environment_fits(self.sh_coefficients,
+                                                            self.coefficients):
+            raise ValueError(f"L̃ of {self.sh_coefficients} SH × {self.coefficients} "
+                             "coefficients exceeds the uniform buffer; use the texture")
+
+
+def environment_fits(sh_coefficients: int, coefficients: int) -> bool:
+    """Whether L̃ (per-draw constant data) fits the uniform buffer ``sm_env``: the 16 KiB
+    every OpenGL allows, up to 16 bands at m = 16. Larger ones stay in a texture."""
+    texels = 4 * -(-int(sh_coefficients) // 4) * -(-int(coefficients) // 4)
+    return texels <= shaders.MAX_LIGHT_BUFFER_TEXELS
 
 
 def create_info(key: PRTShaderKey):
@@ -99,10 +118,18 @@ def create_info(key: PRTShaderKey):
     info = gpu.types.GPUShaderCreateInfo()
     for name, value in key.defines().items():
         info.define(name, value)
-    info.typedef_source(glsl_source("prt/prt_params.glsl"))
+    typedefs = glsl_source("prt/prt_params.glsl")
+    if key.environment_buffer:
+        # One struct per size: the array length is the variant's L̃.
+        typedefs += (f"\nstruct SmPrtEnvironment {{\n  vec4 texels[{key.environment_texels}];"
+                     "\n};\n")
+    info.typedef_source(typedefs)
     info.uniform_buf(0, "SmPrtParams", "sm")
     info.sampler(0, "FLOAT_2D", "transfer_tex")
-    info.sampler(1, "FLOAT_2D", "environment_tex")
+    if key.environment_buffer:
+        info.uniform_buf(1, "SmPrtEnvironment", "sm_env")
+    else:
+        info.sampler(1, "FLOAT_2D", "environment_tex")
     info.sampler(2, "FLOAT_2D_ARRAY", "albedo_tex")
     info.push_constant("MAT4", "model_matrix")
     info.vertex_in(0, "VEC3", "position")
@@ -240,7 +267,9 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
                                "it again")
         coefficients = core_prt.rgb_environment(environment) if rgb else \
             environment.coefficients
-        entry["environment"] = float_texture(environment_texels(coefficients / state.white_y))
+        texels = environment_texels(coefficients / state.white_y)
+        entry["environment"] = texels
+        entry["environment_gpu"] = {}
         entry["env_key"] = env_key
     layers = prt.albedo_layers(obj, scene)
     albedo_key = (layers.key, rgb)
@@ -277,20 +306,38 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
             FAILED[obj.name] = str(exc)
             _OBJECTS.pop(obj.name, None)
             continue
-        key = PRTShaderKey(entry["arrays"].transfer.shape[1], entry["coefficients"], rgb,
-                           output)
+        sh_count = entry["arrays"].transfer.shape[1]
+        key = PRTShaderKey(sh_count, entry["coefficients"], rgb, output,
+                           environment_fits(sh_count, entry["coefficients"]))
         shader = get_shader(key)
         shader.bind()
         params = gpu.types.GPUUniformBuf(params_block(
             view_projection, display, entry["transfer_width"], entry["albedo_size"]))
         shader.uniform_block("sm", params)
         shader.uniform_sampler("transfer_tex", entry["transfer"])
-        shader.uniform_sampler("environment_tex", entry["environment"])
+        bind_environment(shader, key, entry)
         shader.uniform_sampler("albedo_tex", entry["albedo"])
         set_matrix(shader, "model_matrix", np.array(obj.matrix_world))
         entry["batch"].draw(shader)
         drawn.append(obj.name)
     return drawn
+
+
+def bind_environment(shader, key: PRTShaderKey, entry: dict) -> None:
+    """L̃ as the variant reads it: the uniform buffer ``sm_env`` or the texture, each made
+    once per environment (and object rotation) and kept in ``entry``."""
+    import gpu
+
+    kind = "buffer" if key.environment_buffer else "texture"
+    made = entry["environment_gpu"]
+    if kind not in made:
+        texels = entry["environment"]
+        made[kind] = (gpu.types.GPUUniformBuf(texels.astype(np.float32).tobytes())
+                      if kind == "buffer" else float_texture(texels))
+    if kind == "buffer":
+        shader.uniform_block("sm_env", made[kind])
+    else:
+        shader.uniform_sampler("environment_tex", made[kind])
 
 
 def _draw_registered(scene, depsgraph, objects: list, frame: registry.DrawFrame) -> list[str]:

@@ -12,6 +12,7 @@ pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
 
 from blender_helpers import ledge_mesh
 
+from spectral_materials.blender.gpu import shaders
 from spectral_materials.blender.prt import (
     drawer as prt_gpu,
     images as prt_images,
@@ -59,9 +60,14 @@ def test_vertex_xyz_against_the_monte_carlo_reference(clean_scene):
         assert np.mean(de) < 1.0 and np.percentile(de, 95) < 3.0, (illuminant, de.mean())
 
 
+@pytest.mark.parametrize("environment_in", ["buffer", "texture"])
 @pytest.mark.parametrize("basis", [8, 5], ids=["m8", "m5"])
-def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis):
-    """m = 5 leaves the last group of packed albedo layers partly empty."""
+def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, environment_in,
+                                                          monkeypatch):
+    """m = 5 leaves the last group of packed albedo layers partly empty. L̃ comes from the
+    uniform buffer where it fits (always, at 5 bands); the texture path is forced."""
+    if environment_in == "texture":
+        monkeypatch.setattr(prt_gpu, "environment_fits", lambda k, m: False)
     obj = _ledge_scene(clean_scene, subdivisions=6)
     clean_scene.spectral.environment.basis_size = basis
     _setup(clean_scene, obj, kind="CHART", rays=128)
@@ -83,6 +89,8 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis):
     white = prt.environment_white_xyz(clean_scene)
     de = colour_pipeline.delta_e94(expected, gpu_xyz, white)
     assert de.max() < 0.02, de.max()
+    drawn = [k for k in shaders.cached_variants() if isinstance(k, prt_gpu.PRTShaderKey)]
+    assert any(k.environment_buffer == (environment_in == "buffer") for k in drawn), drawn
 
 
 def test_rgb_prt_white_matches_spectral_and_colours_differ_under_fl4(clean_scene):
