@@ -185,14 +185,24 @@ def material_rows(material: str, texels: int, cp_packs: int, images: bool) -> di
 def btf_binder(model, data: btf.BTF, lights, vp: np.ndarray):
     """The drawable BTF material of a fit, and a function binding its shader."""
     from spectral_materials.blender.btf import drawer as btf_gpu
+
+    resource = btf_gpu.BTFMaterial(btf_job.drawable_from_fit(
+        model, model.albedo, data.wavelengths), (4.0, 4.0))
+    return resource, resource_binder(resource, lights, vp)
+
+
+def resource_binder(resource, lights, vp: np.ndarray, edge: float | None = None):
+    """A function binding ``resource``'s variant for ``lights`` (compiled with the texel
+    blend band ``edge`` instead of the resource's own when given)."""
+    from dataclasses import replace
+
+    from spectral_materials.blender.btf import drawer as btf_gpu
     from spectral_materials.blender.gpu.display import DisplaySettings
 
     from .draw_baseline import VIEW_ORIGIN
 
-    resource = btf_gpu.BTFMaterial(btf_job.drawable_from_fit(
-        model, model.albedo, data.wavelengths), (4.0, 4.0))
     key = resource.key(lights, output="DISPLAY")
-    shader = btf_gpu.get_shader(key)
+    shader = btf_gpu.get_shader(key if edge is None else replace(key, edge=edge))
     light_texture = resource.light_texture(lights)
     params = resource.params(DisplaySettings(), VIEW_ORIGIN, vp)
 
@@ -200,7 +210,7 @@ def btf_binder(model, data: btf.BTF, lights, vp: np.ndarray):
         resource.bind(shader, light_texture, params)
         return shader
 
-    return resource, bind_btf
+    return bind_btf
 
 
 def uv_sphere_batch():

@@ -135,8 +135,7 @@ def addon_options(case: Case, theta_cells: int, packs: int) -> FactorOptions:
     isotropic = is_isotropic(case.brdf, WAVELENGTHS)
     name = "hd" if case.glossy_analytic and not isotropic else "io"
     param, isotropic = resolve_parameterization(case.brdf, name, isotropic, WAVELENGTHS)
-    default = get_parameterization(name, isotropic).default_resolution
-    resolution = tuple(max(2, int(round(n * theta_cells / 90.0))) for n in default)
+    resolution = get_parameterization(name, isotropic).theta_resolution(theta_cells)
     return FactorOptions(parameterization=param.name, resolution=resolution,
                          isotropic=isotropic, packs=packs, target_de94=None,
                          pack_size=DEFAULT_PACK_SIZE, smoothing=DEFAULT_SMOOTHING)

@@ -106,27 +106,14 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
             material_binder(bench, material, key, material.light_texture(lights, True)))
 
 
-def nearest_texel_shader(key):
-    """The BTF variant ``key`` compiled with a blend band of 0: nearest texels only."""
-    from spectral_materials.blender.btf import drawer as btf_gpu
-
-    return btf_gpu.get_shader(replace(key, edge=0.0))
-
-
 def btf_binders(fits: dict, data, kind: str, n_lights: int, vp):
-    """(nearest, blended) bind functions of one BTF fit."""
-    from .btf import btf_binder
+    """(nearest, blended) bind functions of one BTF fit: the same resource, its variant
+    compiled with a blend band of 0 (nearest texels only) and with its own."""
+    from .btf import btf_binder, resource_binder
 
     lights = make_lights(n_lights)
     resource, blended = btf_binder(fits[kind], data, lights, vp)
-    shader = nearest_texel_shader(resource.key(lights, output="DISPLAY"))
-    rows = resource.light_texture(lights)
-    params = resource.params(DisplaySettings(), VIEW_ORIGIN, vp)
-
-    def nearest():
-        resource.bind(shader, rows, params)
-        return shader
-    return nearest, blended
+    return resource_binder(resource, lights, vp, edge=0.0), blended
 
 
 def measure(bench: Bench, comparison: str, packs, n_lights: int, pair=None) -> dict:

@@ -101,25 +101,16 @@ def colour_rows(quick: bool) -> list[dict]:
         row = {"case": case.name, "settings": "demo" if demo else "default",
                "parameterization": options.parameterization,
                "resolution": list(options.resolution), "packs": model.packs, "errors": {},
-               "bytes": {"exact": int(texture_bytes(model, "exact"))}}
-        for ill in targets.ILLUMINANTS:
-            exact = model.xyz(pairs.wi, pairs.wo, ill)
-            for precision in FAST:
-                fast = drawn_model(model, precision)
-                stats = metrics.delta_e94_stats(exact, fast.xyz(pairs.wi, pairs.wo, ill), ill)
-                row["errors"].setdefault(precision, {})[ill] = stats
-                row["bytes"][precision] = int(texture_bytes(model, precision))
+               "bytes": {"exact": GPUMaterial(model).nbytes}}
+        exact = {ill: model.xyz(pairs.wi, pairs.wo, ill) for ill in targets.ILLUMINANTS}
+        for precision in FAST:
+            fast = drawn_model(model, precision)
+            row["errors"][precision] = {
+                ill: metrics.delta_e94_stats(exact[ill], fast.xyz(pairs.wi, pairs.wo, ill), ill)
+                for ill in targets.ILLUMINANTS}
+            row["bytes"][precision] = GPUMaterial(model, precision).nbytes
         rows.append(row)
     return rows
-
-
-def texture_bytes(model, precision: str) -> int:
-    """Bytes of the factor texture the draw path uploads for ``precision``."""
-    if precision == "exact":
-        from spectral_materials.blender.brdf import storage
-
-        return int(storage.pack_pixels(model).nbytes)
-    return int(drawn_model(model, precision).texels().size * 2)
 
 
 def _binder(bench: Bench, material: GPUMaterial, lights):

@@ -35,12 +35,7 @@ def draw_precision(material) -> str:
 
 
 def _gpu_material(model, setting: str) -> GPUMaterial:
-    if setting == "auto":
-        precision, measured = choose_precision(model)
-        resource = GPUMaterial(model, precision)
-        resource.chosen = measured
-        return resource
-    return GPUMaterial(model, setting)
+    return GPUMaterial(model, choose_precision(model)[0] if setting == "auto" else setting)
 
 
 def gpu_material(material) -> GPUMaterial | None:

@@ -73,11 +73,10 @@ class GPUMaterial:
 
     ``precision`` (``filtered_factors.FACTOR_PRECISIONS``) says how the factors are
     stored and read; ``model`` is then what the GPU evaluates (``drawn_model``), the
-    float64 mirror of its pixels, and ``source`` the model given."""
+    float64 mirror of its pixels."""
 
     def __init__(self, model: FactoredBRDF, precision: str = "exact"):
         check_drawable(model)
-        self.source = model
         self.precision = precision
         self.model = drawn_model(model, precision)
         self.uniforms = MaterialUniforms.of(model)
@@ -90,8 +89,6 @@ class GPUMaterial:
             self.factor_texture = sixteen_bit_texture(texels, self.model.texture_format)
             self.nbytes = int(texels.size * 2)
         self._light_textures: dict = {}
-        #: With the "auto" setting: each fast precision's measured max ΔE94 (drawer.py).
-        self.chosen: dict = {}
 
     @property
     def groups(self) -> int:

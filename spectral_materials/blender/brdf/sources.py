@@ -144,10 +144,7 @@ def resolve_auto(parameterization: str, isotropic: bool) -> str:
 
 def resolution_for(parameterization: str, isotropic: bool, theta_cells: int) -> tuple[int, ...]:
     """Scale the parameterisation's default grid so that θ has ``theta_cells`` cells per 90°."""
-    param = get_parameterization(parameterization, isotropic)
-    default = param.default_resolution
-    scale = theta_cells / 90.0
-    return tuple(max(2, int(round(n * scale))) for n in default)
+    return get_parameterization(parameterization, isotropic).theta_resolution(theta_cells)
 
 
 def _check_settings(name: str, settings) -> None:

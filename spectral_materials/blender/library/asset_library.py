@@ -45,7 +45,7 @@ def _preview_pixels(path: Path) -> tuple[tuple[int, int], np.ndarray]:
 
 
 def _make_material(entry: dict, folder: Path, name: str):
-    model = FactoredBRDF.load(folder / "factors.npz")
+    model = FactoredBRDF.load(folder / layout.FACTORS_FILE)
     material = bpy.data.materials.new(name)
     try:
         material.spectral.enabled = True
@@ -57,7 +57,7 @@ def _make_material(entry: dict, folder: Path, name: str):
                              f"{entry['packs']} packs; from {Path(entry['source']).name}")
         for tag in ("spectral", Path(entry["source"]).suffix.lstrip(".")):
             asset.tags.new(tag, skip_if_exists=True)
-        size, pixels = _preview_pixels(folder / "thumbnail.png")
+        size, pixels = _preview_pixels(folder / layout.THUMBNAIL_FILE)
         preview = material.preview_ensure()
         preview.image_size = size
         preview.image_pixels_float.foreach_set(pixels)
@@ -68,10 +68,7 @@ def _make_material(entry: dict, folder: Path, name: str):
 
 
 def _remove(material) -> None:
-    result = material.spectral.result
-    for image in (result.image, result.plot):
-        if image is not None:
-            bpy.data.images.remove(image)
+    storage.clear_factored(material)          # its factor and plot images
     bpy.data.materials.remove(material)
 
 

@@ -191,6 +191,12 @@ class Parameterization:
         valid &= extra & (wi[:, 2] >= -tol) & (wo[:, 2] >= -tol)
         return wi.reshape(lead + (3,)), wo.reshape(lead + (3,)), valid.reshape(lead)
 
+    def theta_resolution(self, theta_cells: int) -> tuple[int, ...]:
+        """The default grid scaled so that 90° of θ has ``theta_cells`` cells (at least 2
+        per axis): the add-on's and the library's "θ cells" setting."""
+        scale = int(theta_cells) / 90.0
+        return tuple(max(2, int(round(n * scale))) for n in self.default_resolution)
+
     def grid(self, resolution: tuple[int, ...] | None = None) -> np.ndarray:
         """Cell-centre coordinates of the whole grid, ``(prod(resolution), d)``, C order
         (the last axis varies fastest), so that ``values.reshape(resolution)`` is the table."""

@@ -11,7 +11,7 @@ from ..errors import Cancelled
 from ..formats.brdf_files import READERS
 from ..progress import ProgressCallback, report
 from . import layout
-from .entry import FACTORS_FILE, THUMBNAIL_FILE, factor_entry
+from .entry import factor_entry
 from .executors import Job, executor_for
 from .settings import LibrarySettings, entry_key, file_digest
 from .sources import SourceFile, find_sources, slug
@@ -128,7 +128,7 @@ def _finish(root: Path, job: Job, payload: dict | None, error: BaseException | N
     row = {**payload["row"], "name": source.name, "catalog": source.catalog,
            "source": str(source.path), "format": READERS[source.path.suffix.lower()][0],
            "file_bytes": file_bytes, "input_sha256": digest, "key": key,
-           "files": [FACTORS_FILE, THUMBNAIL_FILE]}
+           "files": [layout.FACTORS_FILE, layout.THUMBNAIL_FILE]}
     if layout.write_entry(root, entry_id(source), payload["files"], row):
         result.written.append(entry_id(source))
 

@@ -15,18 +15,9 @@ from ..brdf import metrics
 from ..brdf.factor import factor_brdf, resolve_parameterization
 from ..colour import spectra
 from ..formats.brdf_files import READERS, read_brdf_file
+from .layout import FACTORS_FILE, THUMBNAIL_FILE
 from .settings import LibrarySettings
 from .thumbnail import thumbnail_png
-
-#: Names of an entry's files.
-FACTORS_FILE = "factors.npz"
-THUMBNAIL_FILE = "thumbnail.png"
-
-
-def grid_resolution(default: tuple[int, ...], theta_cells: int) -> tuple[int, ...]:
-    """The parameterisation's default grid scaled so that 90° of θ has ``theta_cells``
-    cells (as the add-on's θ cells setting does)."""
-    return tuple(max(2, int(round(n * theta_cells / 90.0))) for n in default)
 
 
 def factor_entry(name: str, suffix: str, data: bytes, settings: dict) -> dict:
@@ -49,7 +40,7 @@ def factor_entry(name: str, suffix: str, data: bytes, settings: dict) -> dict:
             wavelengths = spectra.WAVELENGTHS_REFERENCE
             param, isotropic = resolve_parameterization(brdf, options.parameterization, None,
                                                         wavelengths)
-            resolution = grid_resolution(param.default_resolution, options.theta_cells)
+            resolution = param.theta_resolution(options.theta_cells)
             model = factor_brdf(brdf, parameterization=param.name, isotropic=isotropic,
                                 resolution=resolution, packs=options.packs,
                                 wavelengths=wavelengths, spectral_basis=options.basis)

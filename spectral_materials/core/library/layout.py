@@ -31,6 +31,9 @@ INDEX_FILE = "library.json"
 MARKDOWN_FILE = "index.md"
 MATERIALS = "materials"
 ENTRY_FILE = "entry.json"
+#: An entry's factor file and thumbnail (with ENTRY_FILE, its folder's files).
+FACTORS_FILE = "factors.npz"
+THUMBNAIL_FILE = "thumbnail.png"
 LOCK_FILE = ".build.lock"
 _PARTIAL = ".partial-"
 _STALE = ".stale-"
@@ -150,8 +153,7 @@ def write_entry(root: Path, entry_id: str, files: dict[str, bytes], row: dict) -
     partial = Path(tempfile.mkdtemp(prefix=f"{_PARTIAL}{entry_id}-", dir=materials))
     try:
         # Flushed to disk before the rename: after a power loss an entry is whole or absent.
-        for name, data in {**files, ENTRY_FILE: json.dumps(row, indent=1, sort_keys=True)
-                           .encode("utf-8")}.items():
+        for name, data in {**files, ENTRY_FILE: _row_bytes(row)}.items():
             with open(partial / name, "wb") as out:
                 out.write(data)
                 out.flush()
@@ -175,7 +177,11 @@ def update_entry(folder: Path, **fields) -> None:
     """Rewrite fields of an entry's row (not its files), atomically."""
     row = json.loads((folder / ENTRY_FILE).read_text(encoding="utf-8"))
     row.update(fields)
-    atomic_write(folder / ENTRY_FILE, json.dumps(row, indent=1, sort_keys=True).encode())
+    atomic_write(folder / ENTRY_FILE, _row_bytes(row))
+
+
+def _row_bytes(row: dict) -> bytes:
+    return json.dumps(row, indent=1, sort_keys=True).encode("utf-8")
 
 
 def read_entry(folder: Path) -> dict | None:
@@ -225,7 +231,7 @@ def markdown(document: dict) -> list[str]:
         lines.append(f"| {e['name']} | {e['catalog']} | {e['format']} | {e['packs']} | "
                      f"{de['mean']:.3f} | {de['p95']:.3f} | {de['max']:.2f} | {e['bytes']:,} "
                      f"| {e['file_bytes']:,} | {e['seconds']:.1f} | "
-                     f"![{e['name']}]({MATERIALS}/{e['id']}/thumbnail.png) |")
+                     f"![{e['name']}]({MATERIALS}/{e['id']}/{THUMBNAIL_FILE}) |")
     if document["failed"]:
         lines += ["", "## Not in the library (last build)", ""]
         lines += [f"- `{f['source']}`: {f['error']}" for f in document["failed"]]

@@ -27,7 +27,6 @@ from spectral_materials.core.colour import spectra
 from spectral_materials.core.formats.brdf_files import read_brdf_file
 from spectral_materials.core.library import layout
 from spectral_materials.core.library.build import build_library
-from spectral_materials.core.library.entry import grid_resolution
 from spectral_materials.core.library.settings import LibrarySettings
 
 pytestmark = [pytest.mark.bpy]
@@ -103,8 +102,7 @@ def test_an_appended_asset_draws_as_the_material_factored_directly(clean_scene, 
     wl = spectra.WAVELENGTHS_REFERENCE
     param, iso = resolve_parameterization(brdf, SETTINGS.parameterization, None, wl)
     direct = factor_brdf(brdf, parameterization=param.name, isotropic=iso,
-                         resolution=grid_resolution(param.default_resolution,
-                                                    SETTINGS.theta_cells),
+                         resolution=param.theta_resolution(SETTINGS.theta_cells),
                          packs=SETTINGS.packs, wavelengths=wl, spectral_basis=SETTINGS.basis)
     for incidence, illuminant in ((0.0, "D65"), (60.0, "FL2")):
         a = render_sphere(appended, incidence, illuminant, 64)

@@ -502,3 +502,14 @@ def test_view_axes_depend_on_the_view_alone(name):
     b = param.forward(upper(400), wo)
     moved = [k for k in range(param.ndim) if not np.array_equal(a[:, k], b[:, k])]
     assert sorted(set(range(param.ndim)) - set(moved)) == list(param.view_axes)
+
+
+def test_theta_resolution_by_hand():
+    """The "θ cells" setting: 90° of θ gets that many cells, every axis at least 2."""
+    from spectral_materials.core.brdf.params import get_parameterization
+
+    io = get_parameterization("io", False)                 # 90 × 180 × 90 × 180
+    assert io.theta_resolution(32) == (32, 64, 32, 64)
+    assert io.theta_resolution(90) == io.default_resolution
+    assert io.theta_resolution(1) == (2, 2, 2, 2)
+    assert get_parameterization("hd", False).theta_resolution(64) == (64, 32, 64, 32)
