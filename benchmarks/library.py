@@ -55,7 +55,7 @@ RGL_BYTES_PER_CHANNEL = {"isotropic": 16 * 1024, "anisotropic": 544 * 1024}
 RGL_SPECTRAL_CHANNELS = (1000 - 360) // 4 + 1
 SHEET = ROOT / "docs" / "images" / "library_previews.png"
 #: The environments a Dask nanny gives its workers: Dask's default, and the same without
-#: MALLOC_TRIM_THRESHOLD_=65536, which made the RGL reader 1.5× slower here.
+#: MALLOC_TRIM_THRESHOLD_=65536, under which the 4-D RGL factorisation ran much slower.
 _ONE_THREAD = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 DASK_ENVIRONMENTS = {
     "Dask's default worker environment": {"MALLOC_TRIM_THRESHOLD_": 65536, **_ONE_THREAD},
