@@ -4,6 +4,8 @@ an RGL .bsdf, in folders that become catalogs (core/library tests)."""
 from __future__ import annotations
 
 import math
+import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -79,7 +81,10 @@ def make_sources(root: Path, merl_file: Path | None = None) -> list[Path]:
     (root / "merl").mkdir()
     target = root / "merl" / "red plastic.binary"
     if merl_file is not None:
-        target.write_bytes(Path(merl_file).read_bytes())
+        try:
+            os.link(merl_file, target)      # 35 MB per test otherwise; nobody writes to it
+        except OSError:
+            shutil.copyfile(merl_file, target)
     else:
         write_merl_file(target)
     paths.append(target)
