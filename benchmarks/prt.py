@@ -47,6 +47,7 @@ from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.offscreen import Target
 from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
 from spectral_materials.blender.viewport import draw
+from spectral_materials.core.prt.albedo import packed_layer_count
 
 from . import harness
 from .harness import log
@@ -226,7 +227,53 @@ def headline(bench: FrameBench, scene, obj, main_rays: int, args) -> dict:
            **bench.measure(args.frames * 2, args.reps * 2)}
     log(f"  headline bands {MAIN_BANDS} m {MAIN_BASIS}: {row['ms']:.1f} ms/frame, "
         f"RGB {row['rgb_ms']:.1f} ms, spectral/RGB {row['ratio']:.2f}")
+    # The same with the packed R̃ layers (the object's Albedo basis off), and the basis's
+    # colour error against them.
+    obj.spectral_prt.albedo_basis = False
+    try:
+        layers = bench.measure(args.frames * 2, args.reps * 2)
+    finally:
+        obj.spectral_prt.albedo_basis = True
+    row["layers"] = {k: layers[k] for k in ("ms", "rgb_ms", "ratio", "paired")}
+    row["albedo_basis"] = albedo_basis_error(bench, scene, obj)
+    log(f"  with the packed layers: spectral/RGB {layers['ratio']:.2f}; the albedo basis "
+        f"({row['albedo_basis']['rank']} weights) against them: ΔE94 max "
+        f"{max(e['max'] for e in row['albedo_basis']['delta_e94'].values()):.4f}")
     return row
+
+
+def albedo_basis_error(bench: FrameBench, scene, obj) -> dict:
+    """ΔE94 of the drawn image (XYZ output, covered pixels) with the albedo's texture basis
+    against the packed R̃ layers, per illuminant, white = the environment's."""
+    from spectral_materials.core.colour.pipeline import delta_e94
+
+    env = scene.spectral.environment
+    illuminant = env.illuminant
+    errors = {}
+    try:
+        for ill in ILLUMINANTS:
+            env.illuminant = ill
+            images = {}
+            for use in (True, False):
+                obj.spectral_prt.albedo_basis = use
+                depsgraph = bpy.context.evaluated_depsgraph_get()
+                bench.target.framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+                vp, _ = draw.camera_view(scene.camera, SIZE, SIZE, depsgraph)
+                prt_gpu.draw_prt_objects(scene, depsgraph, vp, output="XYZ", objects=[obj])
+                images[use] = bench.target.read()
+            covered = images[False][..., 3] > 0
+            de = delta_e94(images[False][covered, :3].astype(np.float64),
+                           images[True][covered, :3].astype(np.float64),
+                           prt.environment_white_xyz(scene))
+            errors[ill] = {"mean": float(de.mean()), "p95": float(np.percentile(de, 95)),
+                           "max": float(de.max())}
+    finally:
+        env.illuminant = illuminant
+        obj.spectral_prt.albedo_basis = True
+    basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
+    return {"rank": basis.rank, "layers": basis.weight_layers,
+            "packed_layers": packed_layer_count(MAIN_BASIS),
+            "value_error": basis.error, "delta_e94": errors}
 
 
 def settings(args, grids: tuple, main_rays: int, env, mesh_info: dict, obj) -> dict:

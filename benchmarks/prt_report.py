@@ -314,6 +314,24 @@ def _bake_and_frames(results: dict) -> list[str]:
     ]
 
 
+def _albedo_basis_lines(h: dict) -> list[str]:
+    """The albedo's texture basis (core/prt/albedo_basis.py) against the packed layers."""
+    if "albedo_basis" not in h:
+        return []
+    b, layers = h["albedo_basis"], h["layers"]
+    errors = "; ".join(f"{ill} {e['mean']:.4f} / {e['p95']:.4f} / {e['max']:.4f}"
+                       for ill, e in b["delta_e94"].items())
+    return [
+        f"The spectral frames draw the chart's albedo as {b['rank']} weights per texel in "
+        f"{b['layers']} RGBA layers (the object's *Albedo basis*, the default), where the "
+        f"packed R̃ layers take {b['packed_layers']}: {4 * b['layers']} texel fetches per "
+        f"pixel instead of {4 * b['packed_layers']}. With the packed layers, in the same "
+        f"run, spectral / RGB is {layers['ratio']:.2f} ({layers['ms']:.1f} ms). The "
+        f"basis's largest value error is {b['value_error']:.1e} of the largest R̃; its "
+        f"image against the packed layers' (ΔE94 mean / p95 / max over the covered "
+        f"pixels): {errors}.", ""]
+
+
 def _rgb_and_headline(results: dict, t: dict) -> list[str]:
     """RGB PRT's error, and the headline: spectral against RGB PRT."""
     main = results["settings"]["main"]
@@ -335,6 +353,7 @@ def _rgb_and_headline(results: dict, t: dict) -> list[str]:
         f"Spectral PRT costs **{h['ratio']:.2f}×** the frame time of RGB PRT here "
         f"(the spectral PRT paper measured {PAPER_RATIO[0]:g}–{PAPER_RATIO[1]:g}×; the goal "
         f"is ≤ {GOAL_RATIO:g}×: this run {goal} it).", "",
+        *_albedo_basis_lines(h),
         f"By SH bands (rays {main['rays']}, m = {main['basis']}):", "",
         *t["rgb"], "",
     ]

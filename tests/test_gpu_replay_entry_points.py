@@ -31,3 +31,18 @@ def test_the_exporter_finds_what_it_reads(script, monkeypatch):
         assert not missing, f"scripts/{script}.py lacks {missing}"
     finally:
         sys.modules.pop(script, None)
+
+
+def test_the_adapted_exporter_finds_the_precision_and_prt_names():
+    from benchmarks.draw_variants import material_binder
+    from benchmarks.factor_precision import FAST
+
+    assert callable(material_binder) and set(FAST) == {"unorm16", "unorm16_filtered",
+                                                        "half_filtered"}
+    assert "albedo_basis" in bpy_prt_properties()
+
+
+def bpy_prt_properties() -> set[str]:
+    from spectral_materials.blender.prt.properties import SPECTRAL_PG_prt_object
+
+    return set(SPECTRAL_PG_prt_object.__annotations__)

@@ -1,10 +1,13 @@
-/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.transfer.vertex_xyz */
+/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.albedo_basis.AlbedoBasis, spectral_materials.core.prt.transfer.vertex_xyz */
 /* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
  * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
  * spectral_materials/core/prt/albedo.py sample_layers) so that the Python mirror matches.
  * The 3m values of a texel are packed four to a layer (albedo.layers_to_rgba): value
  * q = 3j + c (coefficient j, channel c) is component q % 4 of layer q / 4, so a pixel
  * filters SM_PRT_LAYERS = ⌈3m/4⌉ layers (4 fetches each) instead of m.
+ * SM_PRT_BASIS_LAYERS > 0: the albedo as r weights per texel in a texture basis
+ * (core/prt/albedo_basis.py), four to a layer; XYZ_c = Σ_k w_k(uv) G_kc with G from the
+ * vertex stage, so a pixel filters ⌈r/4⌉ layers.
  * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT is one of
  * SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world), _UV and _PRIMITIVE (the triangle's
  * index) (blender/gpu/outputs.py). */
@@ -41,6 +44,32 @@ void main()
   vec2 f = st - cell;
   ivec2 c0 = ivec2(cell);
   vec4 w = vec4((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
+  vec3 xyz = vec3(0.0);
+#  if SM_PRT_BASIS_LAYERS
+  vec4 g[3 * SM_PRT_BASIS_LAYERS];
+  g[0] = prt_g0;
+  g[1] = prt_g1;
+  g[2] = prt_g2;
+#    if SM_PRT_BASIS_LAYERS > 1
+  g[3] = prt_g3;
+  g[4] = prt_g4;
+  g[5] = prt_g5;
+#    endif
+#    if SM_PRT_BASIS_LAYERS > 2
+  g[6] = prt_g6;
+  g[7] = prt_g7;
+  g[8] = prt_g8;
+#    endif
+#    if SM_PRT_BASIS_LAYERS > 3
+  g[9] = prt_g9;
+  g[10] = prt_g10;
+  g[11] = prt_g11;
+#    endif
+  for (int l = 0; l < SM_PRT_BASIS_LAYERS; l++) {
+    vec4 weights = sm_albedo_filtered(c0, w, l);
+    xyz += vec3(dot(weights, g[3 * l]), dot(weights, g[3 * l + 1]), dot(weights, g[3 * l + 2]));
+  }
+#  else
   vec4 e[4];
   e[0] = prt_e0;
 #  if SM_PRT_VEC4 > 1
@@ -52,7 +81,6 @@ void main()
 #  if SM_PRT_VEC4 > 3
   e[3] = prt_e3;
 #  endif
-  vec3 xyz = vec3(0.0);
 #  if SM_PRT_RGB
   vec3 albedo = sm_albedo_filtered(c0, w, 0).rgb;
   xyz = mat3(sm.rgb_to_xyz) * (e[0].rgb * albedo);
@@ -68,6 +96,7 @@ void main()
     xyz += vec3(dot(e[g], vec4(l0.x, l0.w, l1.z, l2.y)), dot(e[g], vec4(l0.y, l1.x, l1.w, l2.z)),
                 dot(e[g], vec4(l0.z, l1.y, l2.x, l2.w)));
   }
+#  endif
 #  endif
   /* Ringing of a band-limited sharp light: no physical spectrum has a negative XYZ. */
   xyz = max(xyz, vec3(0.0));

@@ -10,8 +10,10 @@ texels a row), the environment texture (one row per SH coefficient, padded to a
 multiple of 4, ``ceil(m/4)`` texels of spectral coefficients, already turned into the
 object's frame by ``prt.object_rotation`` (a reflection for a mirrored object) and
 divided by the scene's white Y, that of the world frame, as ``prt.vertex_xyz`` is) and
-the albedo texture array (``m`` layers of R̃). Each is rebuilt only when its inputs
-change.
+the albedo texture array (the ``3m`` values of R̃ packed four to a layer, or, with the
+object's *Albedo basis*, ``r`` weights per texel in a basis of the texture's own R̃
+vectors, ``core.prt.albedo_basis``, with the mixing array in the uniform buffer
+``sm_basis``). Each is rebuilt only when its inputs change.
 
 ``rgb=True`` draws classical RGB PRT (L̃ and the albedo reduced to linear sRGB, one
 layer), the baseline of the frame-time and accuracy comparisons.
@@ -25,6 +27,7 @@ import numpy as np
 
 from ...core.prt import transfer as core_prt
 from ...core.prt.albedo import layers_to_rgba, packed_layer_count
+from ...core.prt.albedo_basis import MAX_RANK, AlbedoBasis, albedo_to_basis, saves_fetches
 from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.matrices import set_matrix
@@ -46,6 +49,8 @@ from . import bake, scene as prt
 TRANSFER_WIDTH = 4096
 #: Spectral coefficients the varyings carry (4 vec4).
 MAX_COEFFICIENTS = 16
+#: Albedo-basis weights per texel the varyings carry (3 vec4 of G per 4 weights).
+MAX_BASIS_RANK = MAX_RANK
 #: The output requests the PRT shader answers (blender/gpu/outputs.py).
 PRT_OUTPUTS = PRT_REQUESTS
 #: ``SmPrtParams`` as glsl/prt/prt_params.glsl declares it: the packer's one spec.
@@ -65,6 +70,8 @@ class PRTShaderKey:
     output: str = "DISPLAY"
     #: L̃ in the uniform buffer ``sm_env`` (:func:`environment_fits`), else the texture.
     environment_buffer: bool = True
+    #: RGBA layers of albedo-basis weights (``core.prt.albedo_basis``); 0: the R̃ layers.
+    albedo_basis_layers: int = 0
 
     @property
     def texels(self) -> int:
@@ -83,13 +90,21 @@ class PRTShaderKey:
     def albedo_layers(self) -> int:
         """Layers of the albedo texture: one RGB layer for RGB PRT, else the 3m values
         packed four to a texel (``albedo.layers_to_rgba``)."""
+        if self.albedo_basis_layers:
+            return self.albedo_basis_layers
         return 1 if self.rgb else packed_layer_count(self.coefficients)
+
+    @property
+    def albedo_basis_texels(self) -> int:
+        """vec4s of the mixing array in ``sm_basis`` (:func:`albedo_basis_texels`)."""
+        return 3 * self.albedo_basis_layers * 4 * self.vec4s
 
     def defines(self) -> dict[str, str]:
         return {"SM_PRT_TEXELS": str(self.texels), "SM_PRT_COEFFS": str(self.coefficients),
                 "SM_PRT_VEC4": str(self.vec4s), "SM_PRT_RGB": "1" if self.rgb else "0",
                 "SM_PRT_LAYERS": str(self.albedo_layers),
                 "SM_PRT_ENV_BUFFER": "1" if self.environment_buffer else "0",
+                "SM_PRT_BASIS_LAYERS": str(self.albedo_basis_layers),
                 **output_defines(PRT_OUTPUTS[self.output])}
 
     def validate(self) -> None:
@@ -102,6 +117,10 @@ class PRTShaderKey:
                                                             self.coefficients):
             raise ValueError(f"L̃ of {self.sh_coefficients} SH × {self.coefficients} "
                              "coefficients exceeds the uniform buffer; use the texture")
+        if self.albedo_basis_layers and (self.rgb or not 1 <= self.albedo_basis_layers
+                                         <= -(-MAX_BASIS_RANK // 4)):
+            raise ValueError(f"no albedo basis of {self.albedo_basis_layers} layers "
+                             f"{'for RGB PRT' if self.rgb else ''}")
 
 
 def environment_fits(sh_coefficients: int, coefficients: int) -> bool:
@@ -123,8 +142,13 @@ def create_info(key: PRTShaderKey):
         # One struct per size: the array length is the variant's L̃.
         typedefs += (f"\nstruct SmPrtEnvironment {{\n  vec4 texels[{key.environment_texels}];"
                      "\n};\n")
+    if key.albedo_basis_layers:
+        typedefs += (f"\nstruct SmPrtAlbedoBasis {{\n  vec4 texels[{key.albedo_basis_texels}];"
+                     "\n};\n")
     info.typedef_source(typedefs)
     info.uniform_buf(0, "SmPrtParams", "sm")
+    if key.albedo_basis_layers:
+        info.uniform_buf(2, "SmPrtAlbedoBasis", "sm_basis")
     info.sampler(0, "FLOAT_2D", "transfer_tex")
     if key.environment_buffer:
         info.uniform_buf(1, "SmPrtEnvironment", "sm_env")
@@ -136,8 +160,12 @@ def create_info(key: PRTShaderKey):
     info.vertex_in(1, "VEC2", "uv")
     info.vertex_in(2, "FLOAT", "vertex_index")
     interface = gpu.types.GPUStageInterfaceInfo("sm_prt_interface")
-    for b in range(key.vec4s):
-        interface.smooth("VEC4", f"prt_e{b}")
+    if key.albedo_basis_layers:
+        for q in range(3 * key.albedo_basis_layers):
+            interface.smooth("VEC4", f"prt_g{q}")
+    else:
+        for b in range(key.vec4s):
+            interface.smooth("VEC4", f"prt_e{b}")
     interface.smooth("VEC3", "world_position")
     interface.smooth("VEC2", "tex_uv")
     info.vertex_out(interface)
@@ -232,6 +260,37 @@ def environment_texels(coefficients: np.ndarray) -> np.ndarray:
 
 
 
+def albedo_basis_texels(basis: AlbedoBasis, coefficients: int) -> np.ndarray:
+    """(3·L·4⌈m/4⌉, 4) float32 texels of ``sm_basis``: texel ``(l·3 + c)·4⌈m/4⌉ + j`` holds
+    ``mixing[4l:4l+4, j, c]``, the four weights of layer ``l`` (zero-padded)."""
+    layers, m = basis.weight_layers, coefficients
+    width = 4 * -(-m // 4)
+    mix = np.zeros((4 * layers, width, 3), dtype=np.float32)
+    mix[:basis.rank, :m] = basis.mixing
+    return np.ascontiguousarray(mix.reshape(layers, 4, width, 3).transpose(0, 3, 2, 1)
+                                .reshape(-1, 4))
+
+
+def drawn_albedo_basis(layers: np.ndarray) -> AlbedoBasis | None:
+    """The basis the draw uses for R̃ ``layers`` (m, H, W, 3), or None where the packed
+    layers read no more texels."""
+    basis = albedo_to_basis(layers)
+    return basis if saves_fetches(basis, layers.shape[0]) else None
+
+
+def albedo_status(obj) -> str:
+    """What the object's albedo texture holds, for the panel ('' before its first draw)."""
+    entry = _OBJECTS.get(obj.name, {})
+    if "albedo_key" not in entry or entry.get("albedo_key", (None, True))[1]:
+        return ""
+    m = entry["coefficients"]
+    basis = entry.get("albedo_basis")
+    if basis is None:
+        return f"Albedo: {3 * m} values per texel in {packed_layer_count(m)} layers"
+    return (f"Albedo: {basis.rank} weights per texel in {basis.weight_layers} layers "
+            f"(of {packed_layer_count(m)}), error ≤ {basis.error:.1e}")
+
+
 def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
     """The object's batch and textures, rebuilt piecewise when their inputs change."""
     import gpu
@@ -272,11 +331,18 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
         entry["environment_gpu"] = {}
         entry["env_key"] = env_key
     layers = prt.albedo_layers(obj, scene)
-    albedo_key = (layers.key, rgb)
+    use_basis = not rgb and obj.spectral_prt.albedo_basis
+    albedo_key = (layers.key, rgb, use_basis)
     if entry.get("albedo_key") != albedo_key:
+        basis = drawn_albedo_basis(layers.layers) if use_basis else None
+        entry["albedo_basis"] = basis
         if rgb:
             source = prt.albedo_source(obj)
             data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
+        elif basis is not None:
+            data = basis.weights_rgba()
+            entry["albedo_basis_gpu"] = gpu.types.GPUUniformBuf(
+                albedo_basis_texels(basis, layers.layers.shape[0]).tobytes())
         else:
             data = layers_to_rgba(layers.layers)
         entry["albedo"] = array_texture(data)
@@ -307,8 +373,10 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
             _OBJECTS.pop(obj.name, None)
             continue
         sh_count = entry["arrays"].transfer.shape[1]
+        basis = None if rgb else entry["albedo_basis"]
         key = PRTShaderKey(sh_count, entry["coefficients"], rgb, output,
-                           environment_fits(sh_count, entry["coefficients"]))
+                           environment_fits(sh_count, entry["coefficients"]),
+                           basis.weight_layers if basis is not None else 0)
         shader = get_shader(key)
         shader.bind()
         params = gpu.types.GPUUniformBuf(params_block(
@@ -317,6 +385,8 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
         shader.uniform_sampler("transfer_tex", entry["transfer"])
         bind_environment(shader, key, entry)
         shader.uniform_sampler("albedo_tex", entry["albedo"])
+        if key.albedo_basis_layers:
+            shader.uniform_block("sm_basis", entry["albedo_basis_gpu"])
         set_matrix(shader, "model_matrix", np.array(obj.matrix_world))
         entry["batch"].draw(shader)
         drawn.append(obj.name)

@@ -81,6 +81,10 @@ class SPECTRAL_PT_prt_object(bpy.types.Panel):
         elif p.albedo_kind == "SPECTRAL_EXR":
             layout.prop(p, "filepath")
         layout.prop(p, "rays")
+        layout.prop(p, "albedo_basis")
+        status = drawer.albedo_status(obj)
+        if status:
+            layout.label(text=status, icon="TEXTURE")
         if not draw_job(layout, context):
             row = layout.row(align=True)
             row.operator("spectral.bake_prt", icon="RENDER_STILL")

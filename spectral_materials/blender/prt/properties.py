@@ -118,6 +118,11 @@ class SPECTRAL_PG_prt_object(bpy.types.PropertyGroup):
     rays: IntProperty(name="Rays", default=256, min=1, soft_min=16, soft_max=4096,
                       description="Visibility rays per vertex of the transfer bake (half "
                                   "face away and cost nothing)")
+    albedo_basis: BoolProperty(
+        name="Albedo basis", default=True, update=_redraw,
+        description="Draw the albedo as a few weights per texel in a basis of the "
+                    "texture's own spectra (exact for RGB images, within 1e-4 of the layers "
+                    "otherwise): fewer texture reads per pixel")
     albedo_image: PointerProperty(type=bpy.types.Image, name="Albedo layers",
                                   description="Stored R̃ layers (albedo × CMF on the PRT "
                                               "basis), one per basis vector, stacked")

@@ -60,16 +60,20 @@ def test_vertex_xyz_against_the_monte_carlo_reference(clean_scene):
         assert np.mean(de) < 1.0 and np.percentile(de, 95) < 3.0, (illuminant, de.mean())
 
 
+@pytest.mark.parametrize("albedo", ["layers", "basis"])
 @pytest.mark.parametrize("environment_in", ["buffer", "texture"])
 @pytest.mark.parametrize("basis", [8, 5], ids=["m8", "m5"])
 def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, environment_in,
-                                                          monkeypatch):
+                                                          albedo, monkeypatch):
     """m = 5 leaves the last group of packed albedo layers partly empty. L̃ comes from the
-    uniform buffer where it fits (always, at 5 bands); the texture path is forced."""
+    uniform buffer where it fits (always, at 5 bands); the texture path is forced. The
+    albedo is the packed R̃ layers or the chart's texture basis (12 weights at m = 8, 8 at
+    m = 5), against the layers that basis draws."""
     if environment_in == "texture":
         monkeypatch.setattr(prt_gpu, "environment_fits", lambda k, m: False)
     obj = _ledge_scene(clean_scene, subdivisions=6)
     clean_scene.spectral.environment.basis_size = basis
+    obj.spectral_prt.albedo_basis = albedo == "basis"
     _setup(clean_scene, obj, kind="CHART", rays=128)
     assert prt.albedo_layers(obj, clean_scene).layers.shape[0] == basis
     clean_scene.spectral.environment.rotation = 0.7
@@ -82,8 +86,11 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     environment = prt.object_environment(obj, clean_scene)
     transfer = prt_gpu._OBJECTS[obj.name]["arrays"].transfer
     e = prt_images.interpolate(geometry, core_prt.irradiance(transfer, environment))
-    weights = core_albedo.sample_layers(prt.albedo_layers(obj, clean_scene).layers,
-                                        geometry.uv)
+    drawn_basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
+    assert (drawn_basis is not None) == (albedo == "basis")
+    layers = prt.albedo_layers(obj, clean_scene).layers
+    weights = core_albedo.sample_layers(layers if drawn_basis is None else
+                                        drawn_basis.layers(), geometry.uv)
     expected = np.clip(np.einsum("pm,pmc->pc", e, weights), 0.0, None)
     gpu_xyz = image[..., :3][geometry.covered]
     white = prt.environment_white_xyz(clean_scene)
@@ -91,6 +98,12 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     assert de.max() < 0.02, de.max()
     drawn = [k for k in shaders.cached_variants() if isinstance(k, prt_gpu.PRTShaderKey)]
     assert any(k.environment_buffer == (environment_in == "buffer") for k in drawn), drawn
+    assert any(bool(k.albedo_basis_layers) == (albedo == "basis") for k in drawn), drawn
+    if drawn_basis is not None:
+        # Against the full layers, the basis's own error (tolerance 1e-4 of the norm).
+        full = np.clip(np.einsum("pm,pmc->pc", e, core_albedo.sample_layers(layers,
+                                                                           geometry.uv)), 0, None)
+        assert colour_pipeline.delta_e94(full, gpu_xyz, white).max() < 0.05
 
 
 def test_rgb_prt_white_matches_spectral_and_colours_differ_under_fl4(clean_scene):
@@ -227,3 +240,20 @@ def test_stiff_geometry_gives_no_nan_and_no_negative(clean_scene):
     assert np.isfinite(irradiance).all()
     reference = prt.vertex_reference_xyz(obj, rays=256)
     assert np.isfinite(reference).all() and (reference >= 0).all()
+
+
+def test_the_albedo_basis_buffer_holds_the_mixing_where_the_shader_reads_it():
+    from spectral_materials.core.prt.albedo_basis import AlbedoBasis
+
+    rank, m = 6, 5
+    mixing = np.arange(rank * m * 3, dtype=np.float32).reshape(rank, m, 3) + 1
+    basis = AlbedoBasis(np.zeros((rank, 2, 2), np.float32), mixing, 0.0)
+    texels = prt_gpu.albedo_basis_texels(basis, m)
+    width = 4 * -(-m // 4)                                   # j padded to 8
+    assert texels.shape == (3 * 2 * width, 4)
+    for k in range(rank):
+        for j in range(m):
+            for c in range(3):
+                # prt_vert.glsl: texel (l·3 + c)·4⌈m/4⌉ + j, component k % 4, l = k // 4.
+                assert texels[((k // 4) * 3 + c) * width + j, k % 4] == mixing[k, j, c]
+    assert np.count_nonzero(texels) == mixing.size

@@ -1,0 +1,122 @@
+"""The albedo's texture basis (core/prt/albedo_basis.py) against the R̃ layers it replaces:
+exact for Smits-uplifted RGB images, within its stated error for the ColorChecker chart,
+filtering that commutes with the basis, the packing the shader reads, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.prt import albedo as core_albedo
+from spectral_materials.core.prt.albedo_basis import (
+    MAX_RANK,
+    albedo_to_basis,
+    saves_fetches,
+)
+
+WL = np.arange(400.0, 701.0, 10.0)
+
+
+def _chart(patch: int = 4) -> np.ndarray:
+    patches = np.stack([spectra.colorchecker(i, WL) for i in range(1, 25)])
+    return np.repeat(np.repeat(patches.reshape(4, 6, -1), patch, 0), patch, 1)
+
+
+def _basis(m: int) -> np.ndarray:
+    return core_albedo.prt_basis(_chart(1).reshape(-1, WL.size), ["FL4"], WL, m)
+
+
+def _relative_error(basis, layers) -> float:
+    return float(np.abs(basis.layers() - layers).max() / np.abs(layers).max())
+
+
+def test_an_uplifted_rgb_image_is_reproduced_exactly_in_two_layers():
+    # Smits mixes 7 spectra: every texel's R̃ lies in a 7-dimensional subspace.
+    rgb = np.random.default_rng(3).random((24, 40, 3))
+    layers = core_albedo.albedo_layers_from_rgb(rgb, WL, _basis(8)).layers
+    basis = albedo_to_basis(layers)
+    assert basis.rank == 8 and basis.weight_layers == 2
+    assert _relative_error(basis, layers) < 1e-6
+    # The stated error is the float64 one; layers() rounds to float32 on top.
+    assert basis.error == pytest.approx(_relative_error(basis, layers), abs=1e-7)
+    assert saves_fetches(basis, 8)
+
+
+def test_the_chart_keeps_twelve_weights_within_the_tolerance_at_m8():
+    layers = core_albedo.albedo_layers_from_spectra(_chart(), WL, _basis(8)).layers
+    basis = albedo_to_basis(layers)
+    assert basis.rank == 12 and basis.weight_layers == 3
+    # Measured 3.4e-5 of the largest value (the tolerance bounds the Frobenius share).
+    assert 0 < _relative_error(basis, layers) < 1e-4
+    assert saves_fetches(basis, 8)
+
+
+def test_error_grows_and_rank_falls_as_the_tolerance_grows():
+    layers = core_albedo.albedo_layers_from_spectra(_chart(), WL, _basis(8)).layers
+    fits = [albedo_to_basis(layers, tol) for tol in (0.0, 1e-5, 1e-4, 1e-3, 1e-2)]
+    ranks = [b.rank for b in fits]
+    errors = [_relative_error(b, layers) for b in fits]
+    assert ranks == sorted(ranks, reverse=True) and ranks[0] > ranks[-1]
+    assert all(a <= b * 1.0001 for a, b in zip(errors, errors[1:], strict=False)), errors
+    assert all(r % 4 == 0 or r == 3 * 8 for r in ranks), ranks
+
+
+def test_filtering_the_weights_equals_filtering_the_layers_they_draw():
+    layers = core_albedo.albedo_layers_from_spectra(_chart(), WL, _basis(5)).layers
+    basis = albedo_to_basis(layers)
+    uv = np.random.default_rng(0).uniform(-1.3, 2.2, (500, 2))          # wraps, too
+    filtered_layers = core_albedo.sample_layers(basis.layers(), uv)      # (P, m, 3)
+    weights3 = np.repeat(basis.weights[..., None], 3, axis=-1)
+    filtered_weights = core_albedo.sample_layers(weights3, uv)[..., 0]   # (P, r)
+    via_weights = np.einsum("pk,kjc->pjc", filtered_weights, basis.mixing.astype(np.float64))
+    np.testing.assert_allclose(via_weights, filtered_layers, rtol=0, atol=1e-6)
+
+
+def test_weights_pack_four_to_a_layer_with_zero_padding():
+    layers = core_albedo.albedo_layers_from_spectra(_chart(2), WL, _basis(3)).layers
+    basis = albedo_to_basis(layers, 0.0)
+    rgba = basis.weights_rgba()
+    assert rgba.shape == (basis.weight_layers, 8, 12, 4)
+    for k in range(basis.rank):
+        np.testing.assert_array_equal(rgba[k // 4, ..., k % 4], basis.weights[k])
+    assert not rgba.reshape(-1)[basis.rank * 8 * 12:].any() or \
+        not rgba[-1, ..., basis.rank % 4:].any()
+
+
+def test_a_uniform_texture_is_one_direction_and_a_black_one_is_zero():
+    one = core_albedo.albedo_layers_from_spectra(np.full((3, 5, WL.size), 0.4), WL,
+                                                 _basis(8)).layers
+    basis = albedo_to_basis(one)
+    assert _relative_error(basis, one) < 1e-6
+    assert np.count_nonzero(np.abs(basis.weights).max(axis=(1, 2)) > 1e-9) == 1
+    black = albedo_to_basis(np.zeros((8, 2, 2, 3), np.float32))
+    assert black.error == 0.0 and not basis.layers().size == 0 and not black.layers().any()
+
+
+def test_the_rank_is_capped_by_the_values_per_texel():
+    noise = np.random.default_rng(1).random((2, 6, 7, 3)).astype(np.float32)
+    basis = albedo_to_basis(noise, 0.0)
+    assert basis.rank == 6 and _relative_error(basis, noise) < 1e-6
+    assert not saves_fetches(basis, 2)           # 6 values fit 2 layers either way
+    assert MAX_RANK == 16
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_layers_are_refused(bad):
+    layers = np.ones((4, 3, 3, 3), np.float32)
+    layers[2, 1, 1, 0] = bad
+    with pytest.raises(ValueError, match="non-finite"):
+        albedo_to_basis(layers)
+
+
+@pytest.mark.parametrize("shape", [(3, 4, 4), (2, 4, 4, 4), (0, 4, 4, 3)])
+def test_misshapen_layers_are_refused(shape):
+    with pytest.raises(ValueError, match="must be"):
+        albedo_to_basis(np.zeros(shape, np.float32))
+
+
+@pytest.mark.parametrize("tolerance", [-1e-3, 1.0, np.nan])
+def test_absurd_tolerances_are_refused(tolerance):
+    with pytest.raises(ValueError, match="tolerance"):
+        albedo_to_basis(np.ones((2, 2, 2, 3), np.float32), tolerance)
