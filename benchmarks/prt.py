@@ -244,7 +244,9 @@ def headline(bench: FrameBench, scene, obj, main_rays: int, args) -> dict:
 
 def albedo_basis_error(bench: FrameBench, scene, obj) -> dict:
     """ΔE94 of the drawn image (XYZ output, covered pixels) with the albedo's texture basis
-    against the packed R̃ layers, per illuminant, white = the environment's."""
+    against the packed R̃ layers, per illuminant, white = the environment's. llvmpipe
+    filters the basis's weights with float weights; a GPU's 8-bit filter weights add to
+    this (``albedo.sample_layers(..., weight_bits=8)``)."""
     from spectral_materials.core.colour.pipeline import delta_e94
 
     env = scene.spectral.environment
@@ -261,6 +263,8 @@ def albedo_basis_error(bench: FrameBench, scene, obj) -> dict:
                 vp, _ = draw.camera_view(scene.camera, SIZE, SIZE, depsgraph)
                 prt_gpu.draw_prt_objects(scene, depsgraph, vp, output="XYZ", objects=[obj])
                 images[use] = bench.target.read()
+                if use:
+                    basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
             covered = images[False][..., 3] > 0
             de = delta_e94(images[False][covered, :3].astype(np.float64),
                            images[True][covered, :3].astype(np.float64),
@@ -270,7 +274,6 @@ def albedo_basis_error(bench: FrameBench, scene, obj) -> dict:
     finally:
         env.illuminant = illuminant
         obj.spectral_prt.albedo_basis = True
-    basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
     return {"rank": basis.rank, "layers": basis.weight_layers,
             "packed_layers": packed_layer_count(MAIN_BASIS),
             "value_error": basis.error, "delta_e94": errors}

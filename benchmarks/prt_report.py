@@ -324,12 +324,14 @@ def _albedo_basis_lines(h: dict) -> list[str]:
     return [
         f"The spectral frames draw the chart's albedo as {b['rank']} weights per texel in "
         f"{b['layers']} RGBA layers (the object's *Albedo basis*, the default), where the "
-        f"packed R̃ layers take {b['packed_layers']}: {4 * b['layers']} texel fetches per "
-        f"pixel instead of {4 * b['packed_layers']}. With the packed layers, in the same "
-        f"run, spectral / RGB is {layers['ratio']:.2f} ({layers['ms']:.1f} ms). The "
-        f"basis's largest value error is {b['value_error']:.1e} of the largest R̃; its "
-        f"image against the packed layers' (ΔE94 mean / p95 / max over the covered "
-        f"pixels): {errors}.", ""]
+        f"packed R̃ layers take {b['packed_layers']}: {b['layers']} filtered fetches and "
+        f"{3 * b['rank'] * h['basis']} multiply-adds per pixel instead of "
+        f"{4 * b['packed_layers']} texel fetches. With the packed layers, in the same run, "
+        f"spectral / RGB is {layers['ratio']:.2f} ({layers['ms']:.1f} ms): on llvmpipe the "
+        "multiply-adds cost more than the fetches save, on a GPU the reverse "
+        "(docs/bench_gpu.md). The basis's largest value error is "
+        f"{b['value_error']:.1e} of the largest R̃; its image against the packed layers' "
+        f"(ΔE94 mean / p95 / max over the covered pixels): {errors}.", ""]
 
 
 def _rgb_and_headline(results: dict, t: dict) -> list[str]:

@@ -369,10 +369,9 @@ class RecTexture:
         if format not in ("RGBA32F", "RGBA16F", "RGBA16"):
             raise ValueError(f"export_cases records RGBA32F, RGBA16F and RGBA16 textures, "
                              f"got {format}")
-        # Blender 4.5 and 5.0 have no sampler API: their Python textures filter linearly.
-        # Only the 16-bit factors are sampled filtered; float32 textures are read with
-        # texelFetch, and stay NEAREST in the replay as they always were.
-        self.linear = format != "RGBA32F" and not hasattr(self._real, "filter_mode")
+        # Blender 4.5 and 5.0 have no sampler API: their Python textures filter linearly
+        # (texelFetch ignores the filter, so the textures read that way draw the same).
+        self.linear = not hasattr(self._real, "filter_mode")
         texels = np.array(data, dtype=np.float32).ravel() if data is not None else None
         w, h = self.size
         shape = (self.layers, h, w, 4) if self.layers else (h, w, 4)
@@ -841,6 +840,7 @@ def export_prt(store: Store) -> None:
     from spectral_materials import blender as addon
     from spectral_materials.blender import prt
     from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.prt import drawer as prt_gpu
 
     addon.register()
     scene, obj, mesh_info = bp.build_scene(bp.SUBDIVISIONS[0], bp.FLOOR_SUBDIVISIONS[0])
@@ -857,28 +857,50 @@ def export_prt(store: Store) -> None:
     headline = docs.get("headline") if isinstance(docs, dict) else None
     with Target(bp.SIZE, bp.SIZE) as target:
         bench = bp.FrameBench(scene, obj, target)
-        # Spectral with the albedo's texture basis (the default), with the packed R̃
-        # layers (the object's Albedo basis off), and RGB PRT.
-        for rgb, albedo_basis in ((False, True), (False, False), (True, True)):
-            obj.spectral_prt.albedo_basis = albedo_basis
-            bench.frame(rgb)                       # switching modes rebuilds textures
-            start = len(READS)
-            covered = bench.covered(rgb)           # a frame and the project's read-back
-            (read,) = reads_since(start)
-            name = "prt_rgb" if rgb else f"prt_spectral_m{bp.MAIN_BASIS}" + \
-                ("" if albedo_basis else "_layers")
-            export_event(store, name, EVENTS[read["event"]], read["image"], {
-                "family": "prt", "group": "prt",
-                "ratio_to": None if rgb else "prt_rgb",
-                "params": {"bands": bp.MAIN_BANDS, "basis": 3 if rgb else bp.MAIN_BASIS,
-                           "rgb": rgb, "albedo_basis": albedo_basis and not rgb,
-                           "rays": rays, "illuminant": bp.ILLUMINANTS[0],
-                           "sky": "overcast", "window": bp.DEFAULT_WINDOW, **mesh_info},
-                "project": {"source": "scripts/bench_prt.py FrameBench (headline settings)",
-                            "covered_pixels": covered},
-                "llvmpipe_docs": ({"rgb_ms": headline.get("rgb_ms")} if rgb else
-                                  {k: headline.get(k) for k in ("ms", "rgb_ms", "ratio")})
-                if headline else None})
+        for albedo in ("chart", "image"):
+            if albedo == "image":
+                obj.spectral_prt.albedo_kind = "IMAGE"
+                obj.spectral_prt.image = albedo_image()
+            prefix = "prt" if albedo == "chart" else "prt_image"
+            # Spectral with the albedo's texture basis (the default), with the packed R̃
+            # layers (the object's Albedo basis off), and RGB PRT.
+            for rgb, albedo_basis in ((False, True), (False, False), (True, True)):
+                obj.spectral_prt.albedo_basis = albedo_basis
+                bench.frame(rgb)                       # switching modes rebuilds textures
+                start = len(READS)
+                covered = bench.covered(rgb)           # a frame and the project's read-back
+                (read,) = reads_since(start)
+                name = f"{prefix}_rgb" if rgb else f"{prefix}_spectral_m{bp.MAIN_BASIS}" + \
+                    ("" if albedo_basis else "_layers")
+                basis = prt_gpu._OBJECTS[obj.name].get("albedo_basis")
+                export_event(store, name, EVENTS[read["event"]], read["image"], {
+                    "family": "prt", "group": "prt",
+                    "ratio_to": None if rgb else f"{prefix}_rgb",
+                    "params": {"bands": bp.MAIN_BANDS, "basis": 3 if rgb else bp.MAIN_BASIS,
+                               "rgb": rgb, "albedo": albedo,
+                               "albedo_basis_rank": basis.rank if basis and not rgb else None,
+                               "rays": rays, "illuminant": bp.ILLUMINANTS[0],
+                               "sky": "overcast", "window": bp.DEFAULT_WINDOW, **mesh_info},
+                    "project": {"source": "scripts/bench_prt.py FrameBench (headline "
+                                          "settings)", "covered_pixels": covered},
+                    "llvmpipe_docs": ({"rgb_ms": headline.get("rgb_ms")} if rgb else
+                                      {k: headline.get(k) for k in ("ms", "rgb_ms", "ratio")})
+                    if headline and albedo == "chart" else None})
+
+
+def albedo_image(size: int = 256):
+    """A linear RGB albedo texture of smooth colour fields (what an artist's texture is
+    like, unlike the chart's 24 measured spectra): Smits' uplift makes it 7-dimensional."""
+
+    y, x = np.mgrid[0:size, 0:size] / size
+    rgb = np.stack([0.45 + 0.4 * np.sin(6.3 * x + 1.0) * np.cos(3.1 * y),
+                    0.40 + 0.35 * np.sin(4.1 * y + 2.0 * x),
+                    0.35 + 0.3 * np.cos(5.3 * x * y + 0.5)], axis=-1)
+    image = bpy.data.images.new("PRT albedo", size, size, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    pixels = np.concatenate([np.clip(rgb, 0.02, 0.98), np.ones((size, size, 1))], axis=-1)
+    image.pixels.foreach_set(pixels.astype(np.float32).ravel())
+    return image
 
 
 # --------------------------------------------------------------------------- main

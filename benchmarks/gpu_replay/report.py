@@ -8,6 +8,8 @@ each image is from the project's own llvmpipe read-back (cross-GPU agreement).
 Usage::
 
     python -m benchmarks.gpu_replay.report docs/gpu/h200_gpu_results.json [--out docs]
+
+(reads the explored variants' replays, ``docs/gpu/h200_explored_*.json``, beside it).
 """
 
 from __future__ import annotations
@@ -16,24 +18,25 @@ import argparse
 import json
 from pathlib import Path
 
-#: Issue 19's table, replayed on an NVIDIA H100 before this work (its own figures, quoted
-#: for the before/after comparison; another card, so only the ratios carry over).
-ISSUE_H100_MS = {
-    "draw_baseline_l1": 0.431, "draw_io_iso_precontract_p1_l1": 0.93,
-    "draw_io_iso_precontract_p4_l1": 1.64, "draw_io_iso_precontract_p22_l1": 8.63,
-    "draw_io_iso_precontract_p48_l1": 18.7, "draw_io_iso_precontract_p4_l2": 3.24,
-    "draw_io_iso_precontract_p4_l4": 6.49, "draw_io_iso_precontract_p4_l8": 13.0,
-    "draw_io_iso_coefficients_p48_l1": 29.1, "draw_hd_precontract_p48_l1": 22.4,
-    "btf_rfp_l1": 1.32, "btf_rfnl_l1": 1.62, "btf_rfnl_l4": 4.69,
-    "prt_spectral_m8_layers": 0.335, "prt_rgb": 0.098,
-}
-ISSUE_H100_RATIO = {
-    "draw_io_iso_precontract_p1_l1": 2.2, "draw_io_iso_precontract_p4_l1": 3.8,
-    "draw_io_iso_precontract_p22_l1": 20, "draw_io_iso_precontract_p48_l1": 43,
-    "draw_io_iso_precontract_p4_l2": 7.5, "draw_io_iso_precontract_p4_l4": 14.5,
-    "draw_io_iso_precontract_p4_l8": 16.2, "draw_io_iso_coefficients_p48_l1": 68,
-    "draw_hd_precontract_p48_l1": 52, "btf_rfp_l1": 4.7, "btf_rfnl_l1": 5.8,
-    "btf_rfnl_l4": 13.3, "prt_spectral_m8_layers": 3.41,
+#: Issue 19's table, replayed on an NVIDIA H100 before this work: (row, ms, × baseline),
+#: quoted for the before/after comparison (another card: only the ratios carry over).
+#: Its spectral PRT row drew the then albedo layers, today's default is the albedo basis.
+ISSUE_H100 = {
+    "draw_baseline_l1": ("baseline, 1 light", 0.431, 1.0),
+    "draw_io_iso_precontract_p1_l1": ("io_iso precontracted, 1 pack", 0.93, 2.2),
+    "draw_io_iso_precontract_p4_l1": ("io_iso precontracted, 4 packs", 1.64, 3.8),
+    "draw_io_iso_precontract_p22_l1": ("io_iso precontracted, 22 packs", 8.63, 20),
+    "draw_io_iso_precontract_p48_l1": ("io_iso precontracted, 48 packs", 18.7, 43),
+    "draw_io_iso_precontract_p4_l2": ("io_iso 4 packs, 2 lights", 3.24, 7.5),
+    "draw_io_iso_precontract_p4_l4": ("io_iso 4 packs, 4 lights", 6.49, 14.5),
+    "draw_io_iso_precontract_p4_l8": ("io_iso 4 packs, 8 lights", 13.0, 16.2),
+    "draw_io_iso_coefficients_p48_l1": ("io_iso coefficient mode, 48 packs", 29.1, 68),
+    "draw_hd_precontract_p48_l1": ("hd precontracted, 48 packs", 22.4, 52),
+    "btf_rfp_l1": ("BTF RFP, 1 light", 1.32, 4.7),
+    "btf_rfnl_l1": ("BTF RFNL, 1 light", 1.62, 5.8),
+    "btf_rfnl_l4": ("BTF RFNL, 4 lights", 4.69, 13.3),
+    "prt_spectral_m8": ("spectral PRT m = 8 (512²; × RGB PRT)", 0.335, 3.41),
+    "prt_rgb": ("RGB PRT (512²)", 0.098, 1.0),
 }
 #: The issue's per-pack cost before (0.39 ms per million pixels per pack, io_iso, 1 light).
 ISSUE_MS_PER_PACK = 0.388
@@ -45,17 +48,16 @@ def _ms(case: dict) -> float:
 
 
 def draw_table(cases: dict) -> list[str]:
-    lines = ["| case | ms / frame | × baseline (same run) | issue's H100 ms | issue's × |",
-             "|---|---|---|---|---|"]
-    for name in ISSUE_H100_MS:
+    lines = ["| case | replayed case | ms / frame | × baseline (same run) | issue's H100 ms | "
+             "issue's × |", "|---|---|---|---|---|---|"]
+    for name, (label, issue_ms, issue_ratio) in ISSUE_H100.items():
         if name not in cases:
             continue
         c = cases[name]
         base = cases.get(c["ratio_to"]) if c.get("ratio_to") else None
         ratio = f"{_ms(c) / _ms(base):.2f}" if base else "1"
-        issue = ISSUE_H100_RATIO.get(name)
-        lines.append(f"| {name} | {_ms(c):.3f} | {ratio} | {ISSUE_H100_MS[name]:g} | "
-                     f"{issue if issue is not None else 1} |")
+        lines.append(f"| {label} | `{name}` | {_ms(c):.3f} | {ratio} | {issue_ms:g} | "
+                     f"{issue_ratio:g} |")
     return lines
 
 
@@ -80,14 +82,44 @@ def precision_table(cases: dict) -> list[str]:
 
 
 def prt_table(cases: dict) -> list[str]:
-    rgb = cases.get("prt_rgb")
-    if rgb is None:
-        return []
-    lines = ["| case | ms / frame | × RGB PRT (same run) |", "|---|---|---|"]
-    for name in ("prt_rgb", "prt_spectral_m8_layers", "prt_spectral_m8"):
+    lines = ["| albedo | drawn as | ms / frame | × RGB PRT (same run) |", "|---|---|---|---|"]
+    for prefix, albedo in (("prt", "ColorChecker chart (24 spectra)"),
+                           ("prt_image", "RGB image, Smits uplift")):
+        rgb = cases.get(f"{prefix}_rgb")
+        if rgb is None:
+            continue
+        for suffix, drawn in (("_rgb", "RGB PRT"), ("_spectral_m8_layers", "packed R̃ layers"),
+                              ("_spectral_m8", "albedo basis")):
+            c = cases.get(prefix + suffix)
+            if c is None:
+                continue
+            rank = c["params"].get("albedo_basis_rank")
+            label = f"{drawn} ({rank} weights)" if rank else drawn
+            lines.append(f"| {albedo} | {label} | {_ms(c):.3f} | {_ms(c) / _ms(rgb):.2f} |")
+    return lines
+
+
+def btf_table(cases: dict) -> list[str]:
+    lines = ["| case | ms / frame | × baseline (same run) |", "|---|---|---|"]
+    names = ("btf_rfp_l1", "btf_rfnl_l1", "btf_rfp_l4", "btf_rfnl_l4")
+    for name in [*names, *(c for c in cases if c.split("__")[0] in names and "__" in c)]:
         if name in cases:
-            lines.append(f"| {name} | {_ms(cases[name]):.3f} | "
-                         f"{_ms(cases[name]) / _ms(rgb):.2f} |")
+            base = cases[cases[name]["ratio_to"]]
+            lines.append(f"| `{name}` | {_ms(cases[name]):.3f} | "
+                         f"{_ms(cases[name]) / _ms(base):.2f} |")
+    return lines
+
+
+def explored_table(runs: list[dict]) -> list[str]:
+    """Every patched variant (patch_cases.py) against its unpatched case, same run."""
+    lines = ["| run | variant | ms / frame | unpatched ms | × unpatched |", "|---|---|---|---|---|"]
+    for k, run in enumerate(runs, 1):
+        cases = {c["name"]: c for c in run["cases"]}
+        for name, c in cases.items():
+            base = cases.get(c.get("variant_of") or name.split("__")[0])
+            if "__" in name and base is not None:
+                lines.append(f"| {k} | `{name}` | {_ms(c):.3f} | {_ms(base):.3f} | "
+                             f"{_ms(c) / _ms(base):.2f} |")
     return lines
 
 
@@ -103,7 +135,7 @@ def agreement_table(cases: dict) -> list[str]:
     return lines
 
 
-def markdown(results: dict, source: str) -> list[str]:
+def markdown(results: dict, source: str, explored: list[dict] | None = None) -> list[str]:
     cases = {c["name"]: c for c in results["cases"]}
     m, e = results["machine"], results["export"]
     return [
@@ -124,6 +156,17 @@ def markdown(results: dict, source: str) -> list[str]:
         *precision_table(cases), "",
         "## Spectral against RGB PRT (m = 8, bands 5, 512²)", "",
         *prt_table(cases), "",
+        "## BTF (800², texels blended across their edges)", "",
+        *btf_table(cases), "",
+        *(["## Variants timed on the way (`patch_cases.py --set explored`)", "",
+            "Text patches of the shaders of commit b30c25a (albedo basis with G interpolated "
+            "per vertex, BTF lights outermost), each timed beside the unpatched case in the "
+            "same run; their images are not meant to be right. `no_fetch`, `no_basis_ubo`: "
+            "what the albedo fetches and the vertex stage's mixing reads cost; `hw16`/`hw32`: "
+            "hardware-filtered weights; `two_layers`: 8 weights; `pixel_g`: Ê interpolated "
+            "and G formed per pixel (today's shader with `hw32`); `nearest`: no texel-edge "
+            "blend; `texel_outer`: BTF texels outermost (today's RFNL shader).", "",
+            *explored_table(explored), ""] if explored else []),
         "## Agreement with the project's llvmpipe read-back", "",
         "Per pixel: max over RGB |GPU − llvmpipe| / max(|llvmpipe|, 1e-4). *Unexplained*: "
         "pixels over 1e-3 that neither move on llvmpipe when the geometry moves by ~1e-3 px "
@@ -136,10 +179,16 @@ def markdown(results: dict, source: str) -> list[str]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("results", help="gpu_results.json")
+    parser.add_argument("--explored", nargs="*", default=None,
+                        help="replays of patch_cases.py's explored set (default: "
+                             "RESULTS' folder's *_explored_*.json)")
     parser.add_argument("--out", default="docs", help="folder for bench_gpu.md")
     args = parser.parse_args(argv)
     results = json.loads(Path(args.results).read_text())
-    text = "\n".join(markdown(results, args.results))
+    explored = args.explored if args.explored is not None else \
+        sorted(str(p) for p in Path(args.results).parent.glob("*_explored_*.json"))
+    runs = [json.loads(Path(p).read_text()) for p in explored]
+    text = "\n".join(markdown(results, args.results, runs))
     path = Path(args.out) / "bench_gpu.md"
     path.write_text(text)
     print(text)

@@ -319,7 +319,7 @@ class Drawable:
                 tex = ctx.texture((w, h), 4, texels.tobytes(), dtype=dtype)
             mode = moderngl.LINEAR if s.get("linear") else moderngl.NEAREST
             tex.filter = (mode, mode)
-            tex.repeat_x = tex.repeat_y = False
+            tex.repeat_x = tex.repeat_y = bool(s.get("repeat"))
             self.objects.append(tex)
             member = prog.get(name, None)
             if member is None:

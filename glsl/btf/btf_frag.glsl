@@ -100,6 +100,58 @@ void main()
   ivec2 i, n;
   vec4 blend;
   sm_btf_texel_blend(tex_uv * sm.uv_scale.xy, i, n, blend);
+  vec3 xyz = vec3(0.0);
+#  if SM_BTF_KIND == SM_BTF_KIND_RFNL
+  /* RFNL: texels outermost. A blended texel's records (albedo, and per view ρd and the
+   * lobes) are fetched once for all lights, each light's incidence once for all texels.
+   * With 4 lights on an NVIDIA H200 this draws in 0.40× the time of the lights-outermost
+   * loop below, which fetches every record once per light (docs/bench_gpu.md). */
+  vec3 light_local[SM_LIGHTS];
+  float light_irradiance[SM_LIGHTS];
+  for (int light = 0; light < SM_LIGHTS; light++) {
+    vec3 wi_world;
+    light_irradiance[light] = sm_light_incidence(light, P, wi_world);
+    light_local[light] = sm_to_local(frame, wi_world);
+  }
+  for (int t = 0; t < 4; t++) {
+    if (blend[t] > 0.0) {
+      ivec2 texel = sm_btf_blend_texel(i, n, t);
+      vec4 albedo[SM_BTF_ALBEDO_RECORDS];
+      for (int r = 0; r < SM_BTF_ALBEDO_RECORDS; r++) {
+        albedo[r] = sm_btf_record(r, texel);
+      }
+      vec4 records[3 * (1 + SM_BTF_LOBES)];
+      for (int v = 0; v < 3; v++) {
+        int base = sm.counts.x + views[v] * sm.counts.y;
+        for (int r = 0; r <= SM_BTF_LOBES; r++) {
+          records[v * (1 + SM_BTF_LOBES) + r] = sm_btf_record(base + r, texel);
+        }
+      }
+      for (int light = 0; light < SM_LIGHTS; light++) {
+        vec3 l = light_local[light];
+        if (light_irradiance[light] > 0.0 && l.z > 0.0) {
+          float y = 0.0;
+          for (int v = 0; v < 3; v++) {
+            vec4 p0 = records[v * (1 + SM_BTF_LOBES)];
+            float yv = p0.x;
+            for (int j = 0; j < SM_BTF_LOBES; j++) {
+              vec4 lobe = records[v * (1 + SM_BTF_LOBES) + 1 + j];
+              yv += p0[1 + j] * pow(max(dot(lobe.xyz, l), 0.0), lobe.w);
+            }
+            y += w[v] * max(yv, 0.0);
+          }
+          vec3 albedo_xyz = vec3(0.0);
+          for (int j = 0; j < SM_BTF_COEFFS; j++) {
+            albedo_xyz += albedo[j / 4][j % 4] * sm_light_texel(SM_LIGHT_HEADER + j, light).xyz;
+          }
+          xyz += (blend[t] * light_irradiance[light] * y / SM_PI) * albedo_xyz;
+        }
+      }
+    }
+  }
+#  else
+  /* RFP: lights outermost (its two records per view are cheap to fetch again per light;
+   * texels outermost drew 1.19× slower with 4 lights on the H200). */
   /* Albedo coefficients of the blended texels, 4 · SM_BTF_ALBEDO_RECORDS each. */
   float c[16 * SM_BTF_ALBEDO_RECORDS];
   for (int t = 0; t < 4; t++) {
@@ -116,7 +168,6 @@ void main()
   }
   /* Lights outermost: a light's incidence and spectral weights once, then each blended
    * texel's luminance and albedo. */
-  vec3 xyz = vec3(0.0);
   for (int light = 0; light < SM_LIGHTS; light++) {
     vec3 wi_world;
     float irradiance = sm_light_incidence(light, P, wi_world);
@@ -141,6 +192,7 @@ void main()
       }
     }
   }
+#  endif
 #  if SM_OUTPUT == SM_OUTPUT_XYZ
   frag_colour = vec4(xyz, 1.0);
 #  else

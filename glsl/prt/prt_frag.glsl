@@ -6,8 +6,8 @@
  * q = 3j + c (coefficient j, channel c) is component q % 4 of layer q / 4, so a pixel
  * filters SM_PRT_LAYERS = ⌈3m/4⌉ layers (4 fetches each) instead of m.
  * SM_PRT_BASIS_LAYERS > 0: the albedo as r weights per texel in a texture basis
- * (core/prt/albedo_basis.py), four to a layer; XYZ_c = Σ_k w_k(uv) G_kc with G from the
- * vertex stage, so a pixel filters ⌈r/4⌉ layers.
+ * (core/prt/albedo_basis.py), four to a layer, filtered by the texture unit:
+ * XYZ_c = Σ_k w_k(uv) G_kc, so a pixel reads ⌈r/4⌉ texels.
  * SM_PRT_RGB: classical RGB PRT, (Ê_rgb ⊙ albedo_rgb) → XYZ. SM_OUTPUT is one of
  * SM_OUTPUT_XYZ, _DISPLAY (sRGB), _POSITION (world), _UV and _PRIMITIVE (the triangle's
  * index) (blender/gpu/outputs.py). */
@@ -45,31 +45,6 @@ void main()
   ivec2 c0 = ivec2(cell);
   vec4 w = vec4((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y);
   vec3 xyz = vec3(0.0);
-#  if SM_PRT_BASIS_LAYERS
-  vec4 g[3 * SM_PRT_BASIS_LAYERS];
-  g[0] = prt_g0;
-  g[1] = prt_g1;
-  g[2] = prt_g2;
-#    if SM_PRT_BASIS_LAYERS > 1
-  g[3] = prt_g3;
-  g[4] = prt_g4;
-  g[5] = prt_g5;
-#    endif
-#    if SM_PRT_BASIS_LAYERS > 2
-  g[6] = prt_g6;
-  g[7] = prt_g7;
-  g[8] = prt_g8;
-#    endif
-#    if SM_PRT_BASIS_LAYERS > 3
-  g[9] = prt_g9;
-  g[10] = prt_g10;
-  g[11] = prt_g11;
-#    endif
-  for (int l = 0; l < SM_PRT_BASIS_LAYERS; l++) {
-    vec4 weights = sm_albedo_filtered(c0, w, l);
-    xyz += vec3(dot(weights, g[3 * l]), dot(weights, g[3 * l + 1]), dot(weights, g[3 * l + 2]));
-  }
-#  else
   vec4 e[4];
   e[0] = prt_e0;
 #  if SM_PRT_VEC4 > 1
@@ -81,7 +56,27 @@ void main()
 #  if SM_PRT_VEC4 > 3
   e[3] = prt_e3;
 #  endif
-#  if SM_PRT_RGB
+#  if SM_PRT_BASIS_LAYERS
+  /* G_kc = Σ_j Ê_j M_kjc is formed here from the interpolated Ê rather than interpolated
+   * itself: on an NVIDIA H200 three vec4 varyings per layer of weights cost more than
+   * these 3·r·m multiply-adds (docs/bench_gpu.md). The texture unit filters the weights;
+   * each layer has one texel of wrap padding on every side (AlbedoBasis.weights_padded),
+   * so filtering near 0 and 1 blends across the wrap as REPEAT would, with no sampler
+   * setting that Blender 4.5 and 5.0 lack. */
+  vec2 padded = (fract(tex_uv) * vec2(sm.sizes.yz) + 1.0) / vec2(sm.sizes.yz + 2);
+  for (int l = 0; l < SM_PRT_BASIS_LAYERS; l++) {
+    vec4 weights = textureLod(albedo_tex, vec3(padded, float(l)), 0.0);
+    for (int c = 0; c < 3; c++) {
+      vec4 g = vec4(0.0);
+      for (int b = 0; b < SM_PRT_VEC4; b++) {
+        for (int k = 0; k < 4; k++) {
+          g += e[b][k] * sm_basis.texels[((3 * l + c) * SM_PRT_VEC4 + b) * 4 + k];
+        }
+      }
+      xyz[c] += dot(weights, g);
+    }
+  }
+#  elif SM_PRT_RGB
   vec3 albedo = sm_albedo_filtered(c0, w, 0).rgb;
   xyz = mat3(sm.rgb_to_xyz) * (e[0].rgb * albedo);
 #  else
@@ -96,7 +91,6 @@ void main()
     xyz += vec3(dot(e[g], vec4(l0.x, l0.w, l1.z, l2.y)), dot(e[g], vec4(l0.y, l1.x, l1.w, l2.z)),
                 dot(e[g], vec4(l0.z, l1.y, l2.x, l2.w)));
   }
-#  endif
 #  endif
   /* Ringing of a band-limited sharp light: no physical spectrum has a negative XYZ. */
   xyz = max(xyz, vec3(0.0));

@@ -1,4 +1,4 @@
-/* Mirror: spectral_materials.core.prt.transfer.irradiance, spectral_materials.core.prt.albedo_basis.AlbedoBasis */
+/* Mirror: spectral_materials.core.prt.transfer.irradiance */
 /* Spectral PRT, vertex stage (the spectral PRT paper's inner sum): the spectral
  * irradiance coefficients Ê_j = Σ_k T̃_k L̃_kj of this vertex. T̃ (K SH values per
  * vertex, padded to texels of 4) comes from transfer_tex, texel v·SM_PRT_TEXELS + i laid
@@ -28,49 +28,15 @@ void main()
       }
     }
   }
-#if SM_PRT_BASIS_LAYERS
-  /* The albedo's texture basis (core/prt/albedo_basis.py): G_kc = Σ_j Ê_j M_kjc is linear
-   * in Ê, so it is computed here and interpolated exactly. g[3l + c] holds the four
-   * weights of layer l for channel c; sm_basis holds M as vec4 over those four weights,
-   * texel ((l · 3 + c) · 4·SM_PRT_VEC4 + j). */
-  vec4 g[3 * SM_PRT_BASIS_LAYERS];
-  for (int q = 0; q < 3 * SM_PRT_BASIS_LAYERS; q++) {
-    g[q] = vec4(0.0);
-    for (int b = 0; b < SM_PRT_VEC4; b++) {
-      for (int c = 0; c < 4; c++) {
-        g[q] += e[b][c] * sm_basis.texels[(q * SM_PRT_VEC4 + b) * 4 + c];
-      }
-    }
-  }
-  prt_g0 = g[0];
-  prt_g1 = g[1];
-  prt_g2 = g[2];
-#  if SM_PRT_BASIS_LAYERS > 1
-  prt_g3 = g[3];
-  prt_g4 = g[4];
-  prt_g5 = g[5];
-#  endif
-#  if SM_PRT_BASIS_LAYERS > 2
-  prt_g6 = g[6];
-  prt_g7 = g[7];
-  prt_g8 = g[8];
-#  endif
-#  if SM_PRT_BASIS_LAYERS > 3
-  prt_g9 = g[9];
-  prt_g10 = g[10];
-  prt_g11 = g[11];
-#  endif
-#else
   prt_e0 = e[0];
-#  if SM_PRT_VEC4 > 1
+#if SM_PRT_VEC4 > 1
   prt_e1 = e[1];
-#  endif
-#  if SM_PRT_VEC4 > 2
+#endif
+#if SM_PRT_VEC4 > 2
   prt_e2 = e[2];
-#  endif
-#  if SM_PRT_VEC4 > 3
+#endif
+#if SM_PRT_VEC4 > 3
   prt_e3 = e[3];
-#  endif
 #endif
   vec4 world = model_matrix * vec4(position, 1.0);
   world_position = world.xyz;

@@ -19,8 +19,9 @@ def float_texture(texels: np.ndarray):
     return gpu.types.GPUTexture((width, height), format="RGBA32F", data=buffer)
 
 
-def array_texture(layers: np.ndarray):
-    """An RGBA32F 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA."""
+def array_texture(layers: np.ndarray, filtered: bool = False):
+    """An RGBA32F 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA;
+    ``filtered``: sampled with linear filtering (else only ``texelFetch`` reads it)."""
     import gpu
 
     ensure_gpu()
@@ -28,7 +29,18 @@ def array_texture(layers: np.ndarray):
     texels = np.zeros((m, h, w, 4), dtype=np.float32)
     texels[..., : layers.shape[3]] = layers
     buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
-    return gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
+    texture = gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
+    if filtered:
+        _filter_linearly(texture)
+    return texture
+
+
+def _filter_linearly(texture) -> None:
+    if hasattr(texture, "filter_mode"):
+        # Blender 4.5 and 5.0 have no sampler API: their Python textures filter linearly
+        # (tests/blender/brdf/test_factor_precision_gpu.py and the PRT albedo-basis pixel
+        # test pass on both legs).
+        texture.filter_mode(True)
 
 
 def sixteen_bit_texture(texels: np.ndarray, texture_format: str):
@@ -44,8 +56,5 @@ def sixteen_bit_texture(texels: np.ndarray, texture_format: str):
     height, width = texels.shape[:2]
     buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
     texture = gpu.types.GPUTexture((width, height), format=texture_format, data=buffer)
-    if hasattr(texture, "filter_mode"):
-        # Blender 4.5 and 5.0 have no sampler API; their Python textures filter linearly
-        # (tests/blender/brdf/test_factor_precision_gpu.py passes on both legs).
-        texture.filter_mode(True)
+    _filter_linearly(texture)
     return texture

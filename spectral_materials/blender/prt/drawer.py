@@ -49,8 +49,6 @@ from . import bake, scene as prt
 TRANSFER_WIDTH = 4096
 #: Spectral coefficients the varyings carry (4 vec4).
 MAX_COEFFICIENTS = 16
-#: Albedo-basis weights per texel the varyings carry (3 vec4 of G per 4 weights).
-MAX_BASIS_RANK = MAX_RANK
 #: The output requests the PRT shader answers (blender/gpu/outputs.py).
 PRT_OUTPUTS = PRT_REQUESTS
 #: ``SmPrtParams`` as glsl/prt/prt_params.glsl declares it: the packer's one spec.
@@ -118,7 +116,7 @@ class PRTShaderKey:
             raise ValueError(f"L̃ of {self.sh_coefficients} SH × {self.coefficients} "
                              "coefficients exceeds the uniform buffer; use the texture")
         if self.albedo_basis_layers and (self.rgb or not 1 <= self.albedo_basis_layers
-                                         <= -(-MAX_BASIS_RANK // 4)):
+                                         <= -(-MAX_RANK // 4)):
             raise ValueError(f"no albedo basis of {self.albedo_basis_layers} layers "
                              f"{'for RGB PRT' if self.rgb else ''}")
 
@@ -160,12 +158,8 @@ def create_info(key: PRTShaderKey):
     info.vertex_in(1, "VEC2", "uv")
     info.vertex_in(2, "FLOAT", "vertex_index")
     interface = gpu.types.GPUStageInterfaceInfo("sm_prt_interface")
-    if key.albedo_basis_layers:
-        for q in range(3 * key.albedo_basis_layers):
-            interface.smooth("VEC4", f"prt_g{q}")
-    else:
-        for b in range(key.vec4s):
-            interface.smooth("VEC4", f"prt_e{b}")
+    for b in range(key.vec4s):
+        interface.smooth("VEC4", f"prt_e{b}")
     interface.smooth("VEC3", "world_position")
     interface.smooth("VEC2", "tex_uv")
     info.vertex_out(interface)
@@ -262,7 +256,8 @@ def environment_texels(coefficients: np.ndarray) -> np.ndarray:
 
 def albedo_basis_texels(basis: AlbedoBasis, coefficients: int) -> np.ndarray:
     """(3·L·4⌈m/4⌉, 4) float32 texels of ``sm_basis``: texel ``(l·3 + c)·4⌈m/4⌉ + j`` holds
-    ``mixing[4l:4l+4, j, c]``, the four weights of layer ``l`` (zero-padded)."""
+    ``mixing[4l:4l+4, j, c]``, the four weights of layer ``l`` (zero-padded), as
+    glsl/prt/prt_frag.glsl reads it."""
     layers, m = basis.weight_layers, coefficients
     width = 4 * -(-m // 4)
     mix = np.zeros((4 * layers, width, 3), dtype=np.float32)
@@ -340,13 +335,15 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
             source = prt.albedo_source(obj)
             data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
         elif basis is not None:
-            data = basis.weights_rgba()
+            data = basis.weights_padded()
             entry["albedo_basis_gpu"] = gpu.types.GPUUniformBuf(
                 albedo_basis_texels(basis, layers.layers.shape[0]).tobytes())
         else:
             data = layers_to_rgba(layers.layers)
-        entry["albedo"] = array_texture(data)
-        entry["albedo_size"] = (data.shape[2], data.shape[1])
+        entry["albedo"] = array_texture(data, filtered=basis is not None)
+        # The shader's sizes are the texture's own, less the basis weights' wrap padding.
+        pad = 2 if basis is not None else 0
+        entry["albedo_size"] = (data.shape[2] - pad, data.shape[1] - pad)
         entry["albedo_key"] = albedo_key
     entry["coefficients"] = 3 if rgb else layers.layers.shape[0]
     return entry

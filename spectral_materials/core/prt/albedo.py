@@ -297,12 +297,15 @@ def albedo_layers_from_spectral_exr(path: str | Path, wavelengths: np.ndarray,
 # ----------------------------------------------------------------------------- sampling
 
 
-def sample_layers(layers: np.ndarray, uv: np.ndarray) -> np.ndarray:
+def sample_layers(layers: np.ndarray, uv: np.ndarray,
+                  weight_bits: int | None = None) -> np.ndarray:
     """Bilinearly filtered R̃ (N, m, 3) at texture coordinates ``uv`` (N, 2), in float64.
 
     The same arithmetic as a fragment shader filtering by hand with ``texelFetch``
     (``glsl/prt/prt_frag.glsl``): ``s = u·W − ½``, ``t = v·H − ½``; the four texels around
     ``(⌊s⌋, ⌊t⌋)`` wrapped with REPEAT in both directions, weighted by the fractions.
+    ``weight_bits`` rounds the fractions to that many bits, as a texture unit filtering
+    in hardware does (8 on NVIDIA and AMD; None: exact, as llvmpipe and the hand filter).
     Texel ``(i, j)`` has its centre at ``((i + ½)/W, (j + ½)/H)``; row ``j = 0`` is ``v``
     near 0 (OpenGL: the first row uploaded is the bottom).
 
@@ -333,6 +336,9 @@ def sample_layers(layers: np.ndarray, uv: np.ndarray) -> np.ndarray:
     t = flat[:, 1] * height - 0.5
     s0, t0 = np.floor(s), np.floor(t)
     fs, ft = (s - s0)[:, None, None], (t - t0)[:, None, None]
+    if weight_bits is not None:
+        steps = float(1 << int(weight_bits))
+        fs, ft = np.floor(fs * steps + 0.5) / steps, np.floor(ft * steps + 0.5) / steps
     # Wrap in floating point first so that huge coordinates cannot overflow an integer.
     i0 = np.mod(s0, width).astype(np.int64) % width
     j0 = np.mod(t0, height).astype(np.int64) % height

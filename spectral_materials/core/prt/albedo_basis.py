@@ -10,9 +10,10 @@ array), the sum becomes
 
     XYZ_c = Σ_k w_k(uv) G_kc,   G_kc = Σ_j Ê_j M_kjc,
 
-and since ``G`` is linear in Ê, which the rasteriser interpolates linearly, ``G`` is
-computed per vertex and interpolated exactly. The pixel reads ``⌈r/4⌉`` RGBA layers
-instead of ``⌈3m/4⌉`` (3 instead of 6 at m = 8 for the chart, 2 for an RGB image).
+so the pixel reads ``⌈r/4⌉`` RGBA texels of weights instead of filtering ``⌈3m/4⌉``
+layers of R̃ (3 instead of 6 at m = 8 for the chart, 2 for an RGB image). The texture
+unit filters the weights (:meth:`AlbedoBasis.weights_padded`); its 8-bit filter weights
+are what ``albedo.sample_layers(..., weight_bits=8)`` models.
 
 The basis is the principal subspace of the texels' R̃ vectors (the eigenvectors of their
 ``3m × 3m`` Gram matrix, so memory stays one texel block at a time), truncated where
@@ -39,8 +40,7 @@ from .albedo import packed_layer_count
 #: keeps 12 of the ColorChecker chart's 24 values per texel and all 7 dimensions of a
 #: Smits-uplifted image (benchmarks/prt.py states the colour error).
 DEFAULT_TOLERANCE = 1e-4
-#: Most weights per texel: the shader carries 3 × ⌈r/4⌉ vec4 varyings of G (12 at 16),
-#: within the 16 vec4 every OpenGL and Vulkan implementation passes.
+#: Most weights per texel the shader reads (four RGBA layers).
 MAX_RANK = 16
 _TEXELS_PER_BLOCK = 1 << 16
 
@@ -89,6 +89,14 @@ class AlbedoBasis:
         out[:r] = self.weights
         return np.ascontiguousarray(out.reshape(self.weight_layers, 4, h, w)
                                     .transpose(0, 2, 3, 1))
+
+    def weights_padded(self) -> np.ndarray:
+        """(⌈r/4⌉, H + 2, W + 2, 4): :meth:`weights_rgba` with one texel of wrap padding on
+        every side (the opposite edge's texels), so that a texture unit filtering with
+        clamped coordinates blends across the wrap exactly as REPEAT does. The shader maps
+        ``uv`` to ``(fract(uv)·(W, H) + 1) / (W + 2, H + 2)``."""
+        return np.ascontiguousarray(np.pad(self.weights_rgba(),
+                                           ((0, 0), (1, 1), (1, 1), (0, 0)), mode="wrap"))
 
 
 def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) -> AlbedoBasis:

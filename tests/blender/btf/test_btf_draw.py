@@ -99,11 +99,34 @@ def _with_limits(resource, limits):
     return rebuilt
 
 
+def _add_lights(scene) -> None:
+    """Three more lights of other kinds and spectra, aimed at the origin: with the scene's
+    own, four (RFNL's texel-outermost loop and RFP's light-outermost one both run)."""
+    from mathutils import Vector
+
+    for kind, location, energy, illuminant in (("POINT", (3, -4, 2), 300.0, "A"),
+                                               ("SPOT", (-4, -5, 4), 1500.0, "FL2"),
+                                               ("SUN", (-2, -3, 5), 1.5, "FL11")):
+        data = bpy.data.lights.new(kind, kind)
+        data.energy = energy
+        data.spectral.illuminant = illuminant
+        obj = bpy.data.objects.new(kind, data)
+        obj.location = location
+        obj.rotation_euler = (-Vector(location)).to_track_quat("-Z", "Y").to_euler()
+        scene.collection.objects.link(obj)
+    bpy.context.view_layer.update()
+
+
+@pytest.mark.parametrize("lights", [1, 4])
 @pytest.mark.parametrize("kind", ["RFP", "RFNL"])
-def test_gpu_matches_the_mirror(clean_scene, kind):
+def test_gpu_matches_the_mirror(clean_scene, kind, lights):
     bpy.data.objects.remove(bpy.data.objects["Cube"])
+    if lights == 4:
+        _add_lights(clean_scene)
     _, material = _btf_sphere(synthetic_drawable(kind))
     de, stats = _gpu_against_mirror(clean_scene, material)
+    drawn, _ = scene_lights.drawn_lights(clean_scene)
+    assert len(drawn) == lights
     # Every pixel: texels blend continuously across their edges (texel_blend), so a
     # float32 UV on an edge no longer picks a texel the mirror might not.
     assert de.max() < 0.01, (np.percentile(de, 99.5), de.max())

@@ -120,3 +120,46 @@ def test_misshapen_layers_are_refused(shape):
 def test_absurd_tolerances_are_refused(tolerance):
     with pytest.raises(ValueError, match="tolerance"):
         albedo_to_basis(np.ones((2, 2, 2, 3), np.float32), tolerance)
+
+
+def _clamped_bilinear(texels: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """A texture unit's LINEAR filter with CLAMP_TO_EDGE on (L, H, W, 4) texels: an
+    independent reference for the wrap padding."""
+    _, h, w, _ = texels.shape
+    s, t = uv[:, 0] * w - 0.5, uv[:, 1] * h - 0.5
+    i0, j0 = np.floor(s).astype(int), np.floor(t).astype(int)
+    fs, ft = (s - i0)[:, None, None], (t - j0)[:, None, None]
+
+    def at(j, i):
+        return texels[:, np.clip(j, 0, h - 1), np.clip(i, 0, w - 1)].transpose(1, 0, 2)
+    return ((1 - fs) * (1 - ft) * at(j0, i0) + fs * (1 - ft) * at(j0, i0 + 1)
+            + (1 - fs) * ft * at(j0 + 1, i0) + fs * ft * at(j0 + 1, i0 + 1))
+
+
+def test_wrap_padding_makes_a_clamped_filter_repeat():
+    layers = core_albedo.albedo_layers_from_spectra(_chart(2), WL, _basis(8)).layers
+    basis = albedo_to_basis(layers)
+    padded = basis.weights_padded()
+    r, h, w = basis.weights.shape
+    assert padded.shape == (basis.weight_layers, h + 2, w + 2, 4)
+    np.testing.assert_array_equal(padded[:, 0, 1:-1], basis.weights_rgba()[:, -1])
+    np.testing.assert_array_equal(padded[:, 1:-1, -1], basis.weights_rgba()[:, :, 0])
+    # Near the wrap in u and v, and across it (prt_frag.glsl's coordinate mapping).
+    uv = np.concatenate([np.random.default_rng(2).uniform(-0.02, 0.02, (200, 2)),
+                         np.random.default_rng(3).uniform(0.98, 1.02, (200, 2)),
+                         np.random.default_rng(4).uniform(-3.0, 3.0, (200, 2))])
+    mapped = (np.mod(uv, 1.0) * (w, h) + 1.0) / (w + 2, h + 2)
+    hardware = _clamped_bilinear(padded, mapped).reshape(len(uv), -1)[:, :r]
+    weights3 = np.repeat(basis.weights[..., None], 3, axis=-1)
+    repeat = core_albedo.sample_layers(weights3, uv)[..., 0]
+    np.testing.assert_allclose(hardware, repeat, rtol=0, atol=1e-6)
+
+
+def test_eight_bit_filter_weights_round_the_fractions():
+    layers = np.zeros((1, 1, 2, 3))
+    layers[0, 0, 1] = 1.0                                  # 0 then 1 along u
+    # s = u·2 − ½ = 0.3 → the weight of texel 1 is 0.3, rounded to 77/256 with 8 bits.
+    uv = np.array([[0.4, 0.5]])
+    exact = core_albedo.sample_layers(layers, uv)[0, 0, 0]
+    eight = core_albedo.sample_layers(layers, uv, weight_bits=8)[0, 0, 0]
+    assert exact == pytest.approx(0.3) and eight == pytest.approx(77 / 256)
