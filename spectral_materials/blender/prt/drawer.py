@@ -274,16 +274,32 @@ def drawn_albedo_basis(layers: np.ndarray) -> AlbedoBasis | None:
 
 
 def albedo_status(obj) -> str:
-    """What the object's albedo texture holds, for the panel ('' before its first draw)."""
-    entry = _OBJECTS.get(obj.name, {})
-    if "albedo_key" not in entry or entry.get("albedo_key", (None, True))[1]:
+    """What the object's spectral albedo texture holds, for the panel: '' until it is
+    drawn spectrally with the object's current *Albedo basis* setting."""
+    key = _OBJECTS.get(obj.name, {}).get("albedo_key")
+    if key is None or key[1] or key[2] != bool(obj.spectral_prt.albedo_basis):
         return ""
+    entry = _OBJECTS[obj.name]
     m = entry["coefficients"]
     basis = entry.get("albedo_basis")
     if basis is None:
         return f"Albedo: {3 * m} values per texel in {packed_layer_count(m)} layers"
     return (f"Albedo: {basis.rank} weights per texel in {basis.weight_layers} layers "
             f"(of {packed_layer_count(m)}), error ≤ {basis.error:.1e}")
+
+
+def _albedo_basis(obj, entry: dict, layers) -> AlbedoBasis | None:
+    """The drawn basis of the object's layers, kept across RGB/spectral switches (an
+    eigen-decomposition over every texel is not redone per switch)."""
+    kept = entry.get("albedo_basis_of")
+    if kept is not None and kept[0] == layers.key:
+        return kept[1]
+    try:
+        basis = drawn_albedo_basis(layers.layers)
+    except ValueError as exc:              # e.g. non-finite layers read from a stored image
+        raise prt.PRTError(f"Object '{obj.name}': PRT albedo layers: {exc}") from None
+    entry["albedo_basis_of"] = (layers.key, basis)
+    return basis
 
 
 def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
@@ -326,10 +342,10 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
         entry["environment_gpu"] = {}
         entry["env_key"] = env_key
     layers = prt.albedo_layers(obj, scene)
-    use_basis = not rgb and obj.spectral_prt.albedo_basis
+    use_basis = not rgb and bool(obj.spectral_prt.albedo_basis)
     albedo_key = (layers.key, rgb, use_basis)
     if entry.get("albedo_key") != albedo_key:
-        basis = drawn_albedo_basis(layers.layers) if use_basis else None
+        basis = _albedo_basis(obj, entry, layers) if use_basis else None
         entry["albedo_basis"] = basis
         if rgb:
             source = prt.albedo_source(obj)

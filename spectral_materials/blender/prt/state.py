@@ -18,7 +18,7 @@ from ...core.prt import (
 from ..brdf import storage
 from .albedo import albedo_source
 from .environment import environment_data, project, rotation_z
-from .inputs import WAVELENGTHS, cached, digest, prt_objects
+from .inputs import WAVELENGTHS, PRTError, cached, digest, prt_objects
 
 ALBEDO_KEY = "sm_prt_albedo_key"
 
@@ -124,6 +124,10 @@ def layers_from_image(image, basis: np.ndarray) -> core_albedo.AlbedoLayers:
     width, height = image.size
     pixels = np.empty(width * height * 4, dtype=np.float32)
     image.pixels.foreach_get(pixels)
+    bad = int(np.count_nonzero(~np.isfinite(pixels)))
+    if bad:
+        raise PRTError(f"Stored PRT albedo image '{image.name}' holds {bad} non-finite "
+                       "(NaN/inf) values: bake the object again")
     layers = pixels.reshape(m, height // m, width, 4)[..., :3]
     return core_albedo.AlbedoLayers(np.ascontiguousarray(layers), WAVELENGTHS, basis,
                                     "stored image")

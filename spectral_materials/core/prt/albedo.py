@@ -305,7 +305,8 @@ def sample_layers(layers: np.ndarray, uv: np.ndarray,
     (``glsl/prt/prt_frag.glsl``): ``s = u·W − ½``, ``t = v·H − ½``; the four texels around
     ``(⌊s⌋, ⌊t⌋)`` wrapped with REPEAT in both directions, weighted by the fractions.
     ``weight_bits`` rounds the fractions to that many bits, as a texture unit filtering
-    in hardware does (8 on NVIDIA and AMD; None: exact, as llvmpipe and the hand filter).
+    in hardware does (``brdf.filtered_factors.HARDWARE_WEIGHT_BITS`` says which; None:
+    exact, as llvmpipe and the hand filter).
     Texel ``(i, j)`` has its centre at ``((i + ½)/W, (j + ½)/H)``; row ``j = 0`` is ``v``
     near 0 (OpenGL: the first row uploaded is the bottom).
 
@@ -337,6 +338,8 @@ def sample_layers(layers: np.ndarray, uv: np.ndarray,
     s0, t0 = np.floor(s), np.floor(t)
     fs, ft = (s - s0)[:, None, None], (t - t0)[:, None, None]
     if weight_bits is not None:
+        if isinstance(weight_bits, bool) or not 1 <= int(weight_bits) <= 23:
+            raise ValueError(f"weight_bits must be 1..23 or None, got {weight_bits!r}")
         steps = float(1 << int(weight_bits))
         fs, ft = np.floor(fs * steps + 0.5) / steps, np.floor(ft * steps + 0.5) / steps
     # Wrap in floating point first so that huge coordinates cannot overflow an integer.

@@ -136,7 +136,7 @@ def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) ->
     if total == 0.0:
         rank = 1
     else:
-        # tail[r] = share of the energy beyond the first r vectors.
+        # tail[i]: the share of the norm (√ of the energy's) left out by the first i + 1.
         tail = np.sqrt(np.clip(1.0 - np.cumsum(energy) / total, 0.0, None))
         floor = max(tolerance, 64 * np.finfo(np.float32).eps)
         rank = int(np.argmax(tail <= floor)) + 1
@@ -163,5 +163,5 @@ def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) ->
 
 def saves_fetches(basis: AlbedoBasis, coefficients: int) -> bool:
     """Whether drawing ``basis`` reads fewer albedo layers per pixel than the packed R̃
-    layers of ``coefficients`` spectral coefficients, within the varyings' budget."""
+    layers of ``coefficients`` spectral coefficients, within :data:`MAX_RANK`."""
     return basis.rank <= MAX_RANK and basis.weight_layers < packed_layer_count(coefficients)

@@ -68,7 +68,9 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     """m = 5 leaves the last group of packed albedo layers partly empty. L̃ comes from the
     uniform buffer where it fits (always, at 5 bands); the texture path is forced. The
     albedo is the packed R̃ layers or the chart's texture basis (12 weights at m = 8, 8 at
-    m = 5), against the layers that basis draws."""
+    m = 5), against the layers that basis draws, filtered with exact weights as llvmpipe
+    filters (a GPU's texture unit rounds them to 8 bits: albedo.sample_layers'
+    weight_bits, the size of the difference docs/bench_gpu.md shows on an H200)."""
     if environment_in == "texture":
         monkeypatch.setattr(prt_gpu, "environment_fits", lambda k, m: False)
     obj = _ledge_scene(clean_scene, subdivisions=6)
@@ -157,6 +159,31 @@ def test_unbaked_and_stale_objects_say_so_and_others_still_draw(clean_scene):
     with pytest.raises(ValueError, match="no visible object"):
         draw.render_camera(clean_scene)
     assert "Ledge" in prt_gpu.FAILED
+
+
+@pytest.mark.parametrize("albedo_basis", [True, False])
+def test_a_corrupt_stored_albedo_image_is_named_and_others_still_draw(clean_scene,
+                                                                     albedo_basis):
+    obj = _ledge_scene(clean_scene, subdivisions=4)
+    obj.spectral_prt.albedo_basis = albedo_basis
+    _setup(clean_scene, obj, kind="CHART", rays=32)
+    other = obj.copy()
+    other.data = obj.data.copy()
+    other.name = "Second ledge"
+    other.location.x = 0.5
+    clean_scene.collection.objects.link(other)
+    _setup(clean_scene, other, kind="CHART", rays=32)
+    image = obj.spectral_prt.albedo_image
+    assert image is not None and other.spectral_prt.albedo_image not in (None, image)
+    pixels = np.empty(len(image.pixels), dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    pixels[5] = np.nan
+    image.pixels.foreach_set(pixels)
+    prt.clear_cache()
+    prt_gpu.clear_cache()
+    draw.render_camera(clean_scene, output="XYZ")
+    assert "non-finite" in prt_gpu.FAILED.get("Ledge", ""), dict(prt_gpu.FAILED)
+    assert image.name in prt_gpu.FAILED["Ledge"] and "Second ledge" not in prt_gpu.FAILED
 
 
 def test_bad_environment_and_albedo_files_are_named(clean_scene, tmp_path):
@@ -254,6 +281,6 @@ def test_the_albedo_basis_buffer_holds_the_mixing_where_the_shader_reads_it():
     for k in range(rank):
         for j in range(m):
             for c in range(3):
-                # prt_vert.glsl: texel (l·3 + c)·4⌈m/4⌉ + j, component k % 4, l = k // 4.
+                # prt_frag.glsl: texel (l·3 + c)·4⌈m/4⌉ + j, component k % 4, l = k // 4.
                 assert texels[((k // 4) * 3 + c) * width + j, k % 4] == mixing[k, j, c]
     assert np.count_nonzero(texels) == mixing.size
