@@ -27,7 +27,7 @@ import numpy as np
 
 from ...core.prt import transfer as core_prt
 from ...core.prt.albedo import layers_to_rgba, packed_layer_count
-from ...core.prt.albedo_basis import MAX_RANK, AlbedoBasis, albedo_to_basis, saves_fetches
+from ...core.prt.albedo_basis import MAX_RANK, AlbedoBasis, choose_albedo_basis
 from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.matrices import set_matrix
@@ -266,11 +266,6 @@ def albedo_basis_texels(basis: AlbedoBasis, coefficients: int) -> np.ndarray:
                                 .reshape(-1, 4))
 
 
-def drawn_albedo_basis(layers: np.ndarray) -> AlbedoBasis | None:
-    """The basis the draw uses for R̃ ``layers`` (m, H, W, 3), or None where the packed
-    layers read no more texels."""
-    basis = albedo_to_basis(layers)
-    return basis if saves_fetches(basis, layers.shape[0]) else None
 
 
 def albedo_status(obj) -> str:
@@ -285,7 +280,7 @@ def albedo_status(obj) -> str:
     if basis is None:
         return f"Albedo: {3 * m} values per texel in {packed_layer_count(m)} layers"
     return (f"Albedo: {basis.rank} weights per texel in {basis.weight_layers} layers "
-            f"(of {packed_layer_count(m)}), error ≤ {basis.error:.1e}")
+            f"(of {packed_layer_count(m)}), ΔE94 ≤ {basis.delta_e94:.3f}")
 
 
 def _albedo_basis(obj, entry: dict, layers) -> AlbedoBasis | None:
@@ -295,7 +290,7 @@ def _albedo_basis(obj, entry: dict, layers) -> AlbedoBasis | None:
     if kept is not None and kept[0] == layers.key:
         return kept[1]
     try:
-        basis = drawn_albedo_basis(layers.layers)
+        basis = choose_albedo_basis(layers)
     except ValueError as exc:              # e.g. non-finite layers read from a stored image
         raise prt.PRTError(f"Object '{obj.name}': PRT albedo layers: {exc}") from None
     entry["albedo_basis_of"] = (layers.key, basis)

@@ -121,8 +121,9 @@ class SPECTRAL_PG_prt_object(bpy.types.PropertyGroup):
     albedo_basis: BoolProperty(
         name="Albedo basis", default=True, update=_redraw,
         description="Draw the albedo as a few weights per texel in a basis of the "
-                    "texture's own spectra (exact for RGB images, within 1e-4 of the layers "
-                    "otherwise): fewer texture reads per pixel")
+                    "texture's own spectra, filtered by the texture unit (exact for RGB "
+                    "images, within ΔE94 0.05 of the layers otherwise): fewer texture "
+                    "reads per pixel on a GPU")
     albedo_image: PointerProperty(type=bpy.types.Image, name="Albedo layers",
                                   description="Stored R̃ layers (albedo × CMF on the PRT "
                                               "basis), one per basis vector, stacked")

@@ -18,6 +18,8 @@ are what ``albedo.sample_layers(..., weight_bits=8)`` models.
 The basis is the principal subspace of the texels' R̃ vectors (the eigenvectors of their
 ``3m × 3m`` Gram matrix, so memory stays one texel block at a time), truncated where
 the discarded energy falls below ``tolerance`` of the whole (relative Frobenius norm).
+:func:`choose_albedo_basis` then checks the colours: it adds layers of weights until no
+texel moves by more than ΔE94 0.05 against the layers under D65, FL11 and A.
 Bilinear filtering commutes with the change of basis, so filtering the weights equals
 filtering the reconstructed layers.
 
@@ -34,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .albedo import packed_layer_count
+from .albedo import AlbedoLayers, albedo_layers_from_spectra, packed_layer_count
 
 #: Relative Frobenius error of the truncated layers against the full ones. At m = 8 it
 #: keeps 12 of the ColorChecker chart's 24 values per texel and all 7 dimensions of a
@@ -42,6 +44,10 @@ from .albedo import packed_layer_count
 DEFAULT_TOLERANCE = 1e-4
 #: Most weights per texel the shader reads (four RGBA layers).
 MAX_RANK = 16
+#: The largest ΔE94 a drawn basis may make against the packed layers, per texel, under
+#: each of :data:`COLOUR_ILLUMINANTS` (factor precision's *Automatic* bound).
+COLOUR_BOUND_DE94 = 0.05
+COLOUR_ILLUMINANTS = ("D65", "FL11", "A")
 _TEXELS_PER_BLOCK = 1 << 16
 
 
@@ -58,11 +64,14 @@ class AlbedoBasis:
     error : float
         Largest ``|R̃ − reconstruction|`` over the texels and values, relative to the
         largest ``|R̃|``.
+    delta_e94 : float or None
+        Largest ΔE94 against the layers (:func:`colour_error`), where it was measured.
     """
 
     weights: np.ndarray
     mixing: np.ndarray
     error: float
+    delta_e94: float | None = None
 
     @property
     def rank(self) -> int:
@@ -99,7 +108,8 @@ class AlbedoBasis:
                                            ((0, 0), (1, 1), (1, 1), (0, 0)), mode="wrap"))
 
 
-def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) -> AlbedoBasis:
+def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE,
+                    rank: int | None = None) -> AlbedoBasis:
     """The texture basis of ``layers`` (m, H, W, 3) in the fewest RGBA layers of weights
     within ``tolerance``; the last layer is filled with the next vectors, at no cost.
 
@@ -110,6 +120,8 @@ def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) ->
     tolerance : float
         In [0, 1): the discarded share of the layers' Frobenius norm. 0 keeps the
         numerical rank (float32 rounding).
+    rank : int, optional
+        At least this many weights (1 … 3m), whatever the tolerance.
 
     Returns
     -------
@@ -133,6 +145,9 @@ def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) ->
     energy, vectors = np.linalg.eigh(gram)
     energy, vectors = np.clip(energy[::-1], 0.0, None), vectors[:, ::-1]
     total = float(energy.sum())
+    if rank is not None and (isinstance(rank, bool) or not 1 <= int(rank) <= 3 * m):
+        raise ValueError(f"rank must be 1..{3 * m}, got {rank!r}")
+    least = 1 if rank is None else int(rank)
     if total == 0.0:
         rank = 1
     else:
@@ -141,7 +156,7 @@ def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE) ->
         floor = max(tolerance, 64 * np.finfo(np.float32).eps)
         rank = int(np.argmax(tail <= floor)) + 1
     # The shader reads four weights per fetch: the rest of the last layer costs nothing.
-    rank = min(-(-rank // 4) * 4, 3 * m)
+    rank = min(-(-max(rank, least) // 4) * 4, 3 * m)
     basis = vectors[:, :rank]
     # A deterministic sign: each vector's largest component positive.
     basis = basis * np.where(basis[np.abs(basis).argmax(axis=0), range(rank)] < 0, -1.0, 1.0)
@@ -165,3 +180,45 @@ def saves_fetches(basis: AlbedoBasis, coefficients: int) -> bool:
     """Whether drawing ``basis`` reads fewer albedo layers per pixel than the packed R̃
     layers of ``coefficients`` spectral coefficients, within :data:`MAX_RANK`."""
     return basis.rank <= MAX_RANK and basis.weight_layers < packed_layer_count(coefficients)
+
+
+def colour_error(albedo: AlbedoLayers, basis: AlbedoBasis,
+                 illuminants: tuple[str, ...] = COLOUR_ILLUMINANTS) -> float:
+    """Largest ΔE94 over the texels between the albedo lit by each illuminant through its
+    layers and through ``basis``: ``XYZ_c = Σ_j L̂_j R̃_jc`` with ``L̂`` the illuminant on
+    the layers' spectral basis, white = a unit albedo's XYZ under it."""
+    from ..colour.pipeline import delta_e94, illuminant_spd
+
+    wl = albedo.wavelengths
+    psi = np.eye(wl.size) if albedo.basis is None else np.asarray(albedo.basis, np.float64)
+    unit = albedo_layers_from_spectra(np.ones((1, 1, wl.size)), wl, albedo.basis)
+    m, h, w, _ = albedo.layers.shape
+    full = albedo.layers.reshape(m, h * w, 3)
+    drawn = basis.layers().reshape(m, h * w, 3)
+    worst = 0.0
+    for illuminant in illuminants:
+        light = psi.T @ illuminant_spd(illuminant, wl)                     # L̂ (m,)
+        white = light @ unit.layers[:, 0, 0].astype(np.float64)
+        light = light / white[1]                                   # white Y = 1
+        for begin in range(0, h * w, _TEXELS_PER_BLOCK):
+            block = slice(begin, begin + _TEXELS_PER_BLOCK)
+            xyz = np.einsum("j,jtc->tc", light, full[:, block].astype(np.float64))
+            approx = np.einsum("j,jtc->tc", light, drawn[:, block].astype(np.float64))
+            de = delta_e94(xyz, approx, white / white[1])
+            worst = max(worst, float(de.max()))
+    return worst
+
+
+def choose_albedo_basis(albedo: AlbedoLayers, bound: float = COLOUR_BOUND_DE94,
+                        tolerance: float = DEFAULT_TOLERANCE) -> AlbedoBasis | None:
+    """The basis the draw uses for ``albedo``: :func:`albedo_to_basis` at ``tolerance``,
+    grown a layer of weights at a time until its :func:`colour_error` is within
+    ``bound``; None where no basis that reads fewer layers than the packed R̃ is."""
+    m = albedo.count
+    basis = albedo_to_basis(albedo.layers, tolerance)
+    while saves_fetches(basis, m):
+        basis.delta_e94 = colour_error(albedo, basis)
+        if basis.delta_e94 <= bound:
+            return basis
+        basis = albedo_to_basis(albedo.layers, tolerance, rank=min(basis.rank + 4, 3 * m))
+    return None

@@ -9,7 +9,12 @@ import pytest
 
 from spectral_materials.core.colour import spectra
 from spectral_materials.core.prt import albedo as core_albedo
-from spectral_materials.core.prt.albedo_basis import albedo_to_basis, saves_fetches
+from spectral_materials.core.prt.albedo_basis import (
+    albedo_to_basis,
+    choose_albedo_basis,
+    colour_error,
+    saves_fetches,
+)
 
 WL = np.arange(400.0, 701.0, 10.0)
 
@@ -185,3 +190,30 @@ def test_one_ulp_across_texel_edges_moves_the_filtered_albedo_by_almost_nothing(
         # A texture unit's 8-bit weights step by 1/256 of the neighbours' difference.
         eight = core_albedo.sample_layers(layers, uv, weight_bits=8)
         assert np.abs(eight[1] - eight[0]).max() <= np.abs(layers).max() / 256 + 1e-9
+
+
+def test_the_drawn_basis_grows_until_its_colours_are_within_the_bound():
+    albedo = core_albedo.albedo_layers_from_spectra(_chart(), WL, _basis(8))
+    chosen = choose_albedo_basis(albedo)
+    assert chosen.rank == 12 and chosen.delta_e94 <= 0.05
+    # 8 weights (tolerance 1e-2) move a patch by ΔE94 ~0.4: one more layer is taken.
+    eight = albedo_to_basis(albedo.layers, 1e-2)
+    assert eight.rank == 8 and colour_error(albedo, eight) > 0.05
+    grown = choose_albedo_basis(albedo, tolerance=1e-2)
+    assert grown.rank == 12 and grown.delta_e94 <= 0.05
+    # No basis of fewer layers than the packed R̃ meets an impossible bound.
+    assert choose_albedo_basis(albedo, bound=1e-9) is None
+
+
+def test_colour_error_is_zero_for_the_full_rank_and_grows_as_weights_go():
+    albedo = core_albedo.albedo_layers_from_spectra(_chart(), WL, _basis(5))
+    errors = [colour_error(albedo, albedo_to_basis(albedo.layers, 0.99, rank=r))
+              for r in (15, 12, 8, 4)]
+    assert errors[0] < 1e-3
+    assert errors == sorted(errors) and errors[-1] > 1.0
+
+
+@pytest.mark.parametrize("rank", [0, 25, True])
+def test_absurd_ranks_are_refused(rank):
+    with pytest.raises(ValueError, match="rank"):
+        albedo_to_basis(np.ones((8, 2, 2, 3), np.float32), rank=rank)
