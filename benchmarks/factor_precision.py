@@ -11,7 +11,8 @@ Each precision of ``core.brdf.filtered_factors.FACTOR_PRECISIONS`` other than
   AS32 (MERL) case at the defaults, as ``benchmarks.colour_targets`` factors them.
 * **Frame time**: the draw benchmark's sphere (1.0 M px at 1200²), synthetic io_iso packs
   90×180×90, pre-contracted, one light. Timings interleaved B C B C … B, with the
-  exact path as B. On llvmpipe only: a texture unit's figures are still open.
+  exact path as B. Here on llvmpipe; a texture unit's are in docs/bench_gpu.md
+  (benchmarks/gpu_replay exports these draws).
 
 Also printed: the bytes and fetches per axis and pack, counted from
 glsl/brdf/factor_packs.glsl (:func:`fetch_counts`).
@@ -26,6 +27,7 @@ Usage::
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -57,17 +59,19 @@ def fetch_counts() -> list[dict]:
     """Per axis and pack: fetches, bytes fetched and shader lane operations, per precision.
 
     The fetch sites are counted in glsl/brdf/factor_packs.glsl's ``sm_pack_product_axes``
-    (``texelFetch`` in the shader-interpolated branch, ``texture`` in the filtered one);
+    (``texelFetch`` in the shader-interpolated branch, ``textureLod`` in the filtered one);
     lane operations: a mix4 is 4 sub + 4 FMA, the product 4 mul, unorm16's decode 4 FMA.
     """
     source = shaders.glsl_source("brdf/factor_packs.glsl")
     body = source[source.index("vec4 sm_pack_product_axes"):]
     body = body[: body.index("\n}")]
-    fetched = body.count("texelFetch(")
-    filtered = body.count("texture(factor_tex")
+    fetched = len(re.findall(r"texelFetch\(\s*factor_tex", body))
+    filtered = len(re.findall(r"textureLod\(\s*factor_tex", body))
     if (fetched, filtered) != (2, 1):
-        harness.log(f"warning: factor_packs.glsl has {fetched} texelFetch and {filtered} "
-                    "texture sites; the counts below assume 2 and 1: recount them")
+        # The lane counts below are written for these sites: a changed shader must be
+        # recounted, not published with them.
+        raise RuntimeError(f"factor_packs.glsl has {fetched} texelFetch and {filtered} "
+                           "textureLod sites on factor_tex; fetch_counts assumes 2 and 1")
     rows = []
     for precision in FACTOR_PRECISIONS:
         encoding, hardware = PRECISION_TEXELS.get(precision, ("float32", False))
@@ -186,7 +190,7 @@ def markdown(r: dict) -> list[str]:
                          f"{precision} | {cells} | {row['bytes'][precision]:,} "
                          f"({ratio:.2f}) |")
     lines += ["", f"## Frame time on this machine ({r['size']}², {r['reps']} interleaved "
-              "repetitions of 3 frames; no GPU was at hand, so the GPU figure is open)", "",
+              "repetitions of 3 frames; on a GPU, docs/bench_gpu.md)", "",
               "| packs | lights | precision | exact ms | fast ms | fast / exact (median of "
               "paired ratios) |", "|---|---|---|---|---|---|"]
     for d in r["draw"]:
