@@ -283,16 +283,15 @@ def albedo_status(obj) -> str:
             f"(of {packed_layer_count(m)}), ΔE94 ≤ {basis.delta_e94:.3f}")
 
 
-def _albedo_basis(obj, entry: dict, layers) -> AlbedoBasis | None:
+def _albedo_basis(entry: dict, layers) -> AlbedoBasis | None:
     """The drawn basis of the object's layers, kept across RGB/spectral switches (an
     eigen-decomposition over every texel is not redone per switch)."""
     kept = entry.get("albedo_basis_of")
     if kept is not None and kept[0] == layers.key:
         return kept[1]
-    try:
-        basis = choose_albedo_basis(layers)
-    except ValueError as exc:              # e.g. non-finite layers read from a stored image
-        raise prt.PRTError(f"Object '{obj.name}': PRT albedo layers: {exc}") from None
+    # Layers are finite: every source checks its values, a stored image included
+    # (state.layers_from_image names it).
+    basis = choose_albedo_basis(layers)
     entry["albedo_basis_of"] = (layers.key, basis)
     return basis
 
@@ -340,7 +339,7 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
     use_basis = not rgb and bool(obj.spectral_prt.albedo_basis)
     albedo_key = (layers.key, rgb, use_basis)
     if entry.get("albedo_key") != albedo_key:
-        basis = _albedo_basis(obj, entry, layers) if use_basis else None
+        basis = _albedo_basis(entry, layers) if use_basis else None
         entry["albedo_basis"] = basis
         if rgb:
             source = prt.albedo_source(obj)

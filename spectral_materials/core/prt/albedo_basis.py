@@ -108,6 +108,72 @@ class AlbedoBasis:
                                            ((0, 0), (1, 1), (1, 1), (0, 0)), mode="wrap"))
 
 
+@dataclass
+class _PrincipalAxes:
+    """A texture's R̃ vectors as rows (texels, 3m) and the eigen-decomposition of their
+    Gram matrix, largest first: computed once, truncated at any rank."""
+
+    flat: np.ndarray
+    shape: tuple[int, int, int]        # m, H, W
+    energy: np.ndarray
+    vectors: np.ndarray
+
+
+def _principal_axes(layers: np.ndarray) -> _PrincipalAxes:
+    layers = np.asarray(layers)
+    if layers.ndim != 4 or layers.shape[3] != 3 or min(layers.shape) < 1:
+        raise ValueError(f"albedo layers must be (m, H, W, 3), got {layers.shape}")
+    m, h, w, _ = layers.shape
+    flat = layers.transpose(1, 2, 0, 3).reshape(h * w, 3 * m)
+    if not np.isfinite(flat).all():
+        raise ValueError("albedo layers hold non-finite (NaN/inf) values")
+    gram = np.zeros((3 * m, 3 * m))
+    for begin in range(0, h * w, _TEXELS_PER_BLOCK):
+        block = flat[begin:begin + _TEXELS_PER_BLOCK].astype(np.float64)
+        gram += block.T @ block
+    energy, vectors = np.linalg.eigh(gram)
+    return _PrincipalAxes(flat, (m, h, w), np.clip(energy[::-1], 0.0, None), vectors[:, ::-1])
+
+
+def _truncated(axes: _PrincipalAxes, tolerance: float, rank: int | None) -> AlbedoBasis:
+    """The basis of ``axes`` in the fewest RGBA layers within ``tolerance`` and holding at
+    least ``rank`` weights (:func:`albedo_to_basis`)."""
+    tolerance = float(tolerance)
+    if not 0.0 <= tolerance < 1.0:
+        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    m, h, w = axes.shape
+    if rank is not None and (isinstance(rank, bool) or not 1 <= int(rank) <= 3 * m):
+        raise ValueError(f"rank must be 1..{3 * m}, got {rank!r}")
+    least = 1 if rank is None else int(rank)
+    total = float(axes.energy.sum())
+    if total == 0.0:
+        rank = 1
+    else:
+        # tail[i]: the share of the norm (√ of the energy's) left out by the first i + 1.
+        tail = np.sqrt(np.clip(1.0 - np.cumsum(axes.energy) / total, 0.0, None))
+        floor = max(tolerance, 64 * np.finfo(np.float32).eps)
+        rank = int(np.argmax(tail <= floor)) + 1
+    # The shader reads four weights per fetch: the rest of the last layer costs nothing.
+    rank = min(-(-max(rank, least) // 4) * 4, 3 * m)
+    basis = axes.vectors[:, :rank]
+    # A deterministic sign: each vector's largest component positive.
+    basis = basis * np.where(basis[np.abs(basis).argmax(axis=0), range(rank)] < 0, -1.0, 1.0)
+    drawn = basis.astype(np.float32).astype(np.float64)      # the mixing as stored
+    weights = np.empty((h * w, rank), dtype=np.float32)
+    worst = 0.0
+    for begin in range(0, h * w, _TEXELS_PER_BLOCK):
+        block = axes.flat[begin:begin + _TEXELS_PER_BLOCK].astype(np.float64)
+        coords = block @ basis
+        weights[begin:begin + _TEXELS_PER_BLOCK] = coords
+        rebuilt = coords.astype(np.float32).astype(np.float64) @ drawn.T
+        worst = max(worst, float(np.abs(rebuilt - block).max()))
+    scale = float(np.abs(axes.flat).max())
+    return AlbedoBasis(
+        weights=np.ascontiguousarray(weights.T.reshape(rank, h, w)),
+        mixing=np.ascontiguousarray(drawn.T.reshape(rank, m, 3).astype(np.float32)),
+        error=worst / scale if scale > 0 else 0.0)
+
+
 def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE,
                     rank: int | None = None) -> AlbedoBasis:
     """The texture basis of ``layers`` (m, H, W, 3) in the fewest RGBA layers of weights
@@ -128,52 +194,7 @@ def albedo_to_basis(layers: np.ndarray, tolerance: float = DEFAULT_TOLERANCE,
     AlbedoBasis
         With at least one weight; ``error`` states the largest value error it makes.
     """
-    layers = np.asarray(layers)
-    if layers.ndim != 4 or layers.shape[3] != 3 or min(layers.shape) < 1:
-        raise ValueError(f"albedo layers must be (m, H, W, 3), got {layers.shape}")
-    tolerance = float(tolerance)
-    if not 0.0 <= tolerance < 1.0:
-        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
-    m, h, w, _ = layers.shape
-    flat = layers.transpose(1, 2, 0, 3).reshape(h * w, 3 * m)
-    if not np.isfinite(flat).all():
-        raise ValueError("albedo layers hold non-finite (NaN/inf) values")
-    gram = np.zeros((3 * m, 3 * m))
-    for begin in range(0, h * w, _TEXELS_PER_BLOCK):
-        block = flat[begin:begin + _TEXELS_PER_BLOCK].astype(np.float64)
-        gram += block.T @ block
-    energy, vectors = np.linalg.eigh(gram)
-    energy, vectors = np.clip(energy[::-1], 0.0, None), vectors[:, ::-1]
-    total = float(energy.sum())
-    if rank is not None and (isinstance(rank, bool) or not 1 <= int(rank) <= 3 * m):
-        raise ValueError(f"rank must be 1..{3 * m}, got {rank!r}")
-    least = 1 if rank is None else int(rank)
-    if total == 0.0:
-        rank = 1
-    else:
-        # tail[i]: the share of the norm (√ of the energy's) left out by the first i + 1.
-        tail = np.sqrt(np.clip(1.0 - np.cumsum(energy) / total, 0.0, None))
-        floor = max(tolerance, 64 * np.finfo(np.float32).eps)
-        rank = int(np.argmax(tail <= floor)) + 1
-    # The shader reads four weights per fetch: the rest of the last layer costs nothing.
-    rank = min(-(-max(rank, least) // 4) * 4, 3 * m)
-    basis = vectors[:, :rank]
-    # A deterministic sign: each vector's largest component positive.
-    basis = basis * np.where(basis[np.abs(basis).argmax(axis=0), range(rank)] < 0, -1.0, 1.0)
-    drawn = basis.astype(np.float32).astype(np.float64)      # the mixing as stored
-    weights = np.empty((h * w, rank), dtype=np.float32)
-    worst = 0.0
-    for begin in range(0, h * w, _TEXELS_PER_BLOCK):
-        block = flat[begin:begin + _TEXELS_PER_BLOCK].astype(np.float64)
-        coords = block @ basis
-        weights[begin:begin + _TEXELS_PER_BLOCK] = coords
-        rebuilt = coords.astype(np.float32).astype(np.float64) @ drawn.T
-        worst = max(worst, float(np.abs(rebuilt - block).max()))
-    scale = float(np.abs(flat).max())
-    return AlbedoBasis(
-        weights=np.ascontiguousarray(weights.T.reshape(rank, h, w)),
-        mixing=np.ascontiguousarray(drawn.T.reshape(rank, m, 3).astype(np.float32)),
-        error=worst / scale if scale > 0 else 0.0)
+    return _truncated(_principal_axes(layers), tolerance, rank)
 
 
 def saves_fetches(basis: AlbedoBasis, coefficients: int) -> bool:
@@ -199,12 +220,12 @@ def colour_error(albedo: AlbedoLayers, basis: AlbedoBasis,
     for illuminant in illuminants:
         light = psi.T @ illuminant_spd(illuminant, wl)                     # L̂ (m,)
         white = light @ unit.layers[:, 0, 0].astype(np.float64)
-        light = light / white[1]                                   # white Y = 1
+        light, white = light / white[1], white / white[1]          # white Y = 1
         for begin in range(0, h * w, _TEXELS_PER_BLOCK):
             block = slice(begin, begin + _TEXELS_PER_BLOCK)
             xyz = np.einsum("j,jtc->tc", light, full[:, block].astype(np.float64))
             approx = np.einsum("j,jtc->tc", light, drawn[:, block].astype(np.float64))
-            de = delta_e94(xyz, approx, white / white[1])
+            de = delta_e94(xyz, approx, white)
             worst = max(worst, float(de.max()))
     return worst
 
@@ -215,10 +236,11 @@ def choose_albedo_basis(albedo: AlbedoLayers, bound: float = COLOUR_BOUND_DE94,
     grown a layer of weights at a time until its :func:`colour_error` is within
     ``bound``; None where no basis that reads fewer layers than the packed R̃ is."""
     m = albedo.count
-    basis = albedo_to_basis(albedo.layers, tolerance)
+    axes = _principal_axes(albedo.layers)      # one pass over the texels for every rank
+    basis = _truncated(axes, tolerance, None)
     while saves_fetches(basis, m):
         basis.delta_e94 = colour_error(albedo, basis)
         if basis.delta_e94 <= bound:
             return basis
-        basis = albedo_to_basis(albedo.layers, tolerance, rank=min(basis.rank + 4, 3 * m))
+        basis = _truncated(axes, tolerance, min(basis.rank + 4, 3 * m))
     return None
