@@ -134,13 +134,13 @@ class FrameBench:
     def __init__(self, scene, obj, target: Target):
         self.scene, self.obj, self.target = scene, obj, target
 
-    def frame(self, rgb: bool) -> tuple[float, float]:
+    def frame(self, rgb: bool, output: str = "DISPLAY") -> tuple[float, float]:
         """(wall seconds, seconds until draw_prt_objects returned) of one synced frame."""
         depsgraph = bpy.context.evaluated_depsgraph_get()
         start = time.perf_counter()
         self.target.framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
         vp, _ = draw.camera_view(self.scene.camera, SIZE, SIZE, depsgraph)
-        drawn = prt_gpu.draw_prt_objects(self.scene, depsgraph, vp, rgb=rgb,
+        drawn = prt_gpu.draw_prt_objects(self.scene, depsgraph, vp, rgb=rgb, output=output,
                                          objects=[self.obj])
         issued = time.perf_counter()
         self.target.framebuffer.read_color(0, 0, 1, 1, 4, 0, "FLOAT")
@@ -258,10 +258,7 @@ def albedo_basis_error(bench: FrameBench, scene, obj) -> dict:
             images = {}
             for use in (True, False):
                 obj.spectral_prt.albedo_basis = use
-                depsgraph = bpy.context.evaluated_depsgraph_get()
-                bench.target.framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-                vp, _ = draw.camera_view(scene.camera, SIZE, SIZE, depsgraph)
-                prt_gpu.draw_prt_objects(scene, depsgraph, vp, output="XYZ", objects=[obj])
+                bench.frame(False, output="XYZ")
                 images[use] = bench.target.read()
                 if use:
                     basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
