@@ -10,6 +10,7 @@ struct SmParams {
   ivec4 misc;            /* x: edge rule (SM_EDGE_*), y: texel rows per axis */
   vec4 display;          /* x: exposure, y: tone-map white, zw: target size (sphere) */
   vec4 view_origin;      /* eye position (w = 1) or direction toward the viewer (w = 0) */
+  vec4 lobe;             /* analytic specular lobe: x nu, y nv (specular_lobe.glsl) */
   mat4 adaptation;       /* Bradford, scene white → D65 (upper 3 × 3) */
   mat4 xyz_to_rgb;       /* XYZ → linear sRGB (upper 3 × 3) */
   mat4 view_projection;  /* world → clip (meshes) */

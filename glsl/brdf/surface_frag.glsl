@@ -74,6 +74,9 @@ void main()
 #    if !SM_COSINE_WEIGHTED
       weight[light] *= wi.z;
 #    endif
+#    if SM_LOBE_TEXEL > 0
+      xyz += irradiance * sm_lobe_xyz(wi, wo, light);
+#    endif
     }
   }
   /* Any incident direction gives the view's axes the same coordinates. */
@@ -100,6 +103,9 @@ void main()
       vec3 reflected = sm_reflected_xyz(sm_lookups(sm_coordinates(wi, wo)), light);
 #    if !SM_COSINE_WEIGHTED
       reflected *= wi.z;
+#    endif
+#    if SM_LOBE_TEXEL > 0
+      reflected += sm_lobe_xyz(wi, wo, light);
 #    endif
       xyz += irradiance * reflected;
     }

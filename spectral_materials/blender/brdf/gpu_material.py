@@ -18,7 +18,7 @@ import numpy as np
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.factored import FactoredBRDF
 from ...core.brdf.filtered_factors import drawn_model
-from ...core.brdf.shading import light_row_texels, light_texels
+from ...core.brdf.shading import LOBE_TEXELS, light_row_texels, light_texels, lobe_texel
 from ...core.lights import SpectralLight
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.shaders import MAX_LIGHT_BUFFER_TEXELS, PARAMETERIZATION_CODES, ShaderKey
@@ -44,6 +44,8 @@ class MaterialUniforms:
     axis_cells: tuple
     edge_rule: int
     pack_rows: int
+    #: The analytic lobe's exponents (nu, nv, 0, 0); zeros without one.
+    lobe: tuple = (0.0, 0.0, 0.0, 0.0)
 
     @classmethod
     def of(cls, model: FactoredBRDF) -> MaterialUniforms:
@@ -57,6 +59,8 @@ class MaterialUniforms:
             axis_cells=tuple(int(n) for n in model.grid.shape) + (1,) * pad,
             edge_rule=EDGE_RULES.index(model.edge),
             pack_rows=-(-model.terms // 4),
+            lobe=(0.0,) * 4 if model.lobe is None else
+            (float(model.lobe.nu), float(model.lobe.nv), 0.0, 0.0),
         )
 
 
@@ -98,6 +102,8 @@ class GPUMaterial:
         """Texels per light row when the rows go in the uniform buffer ``sm_lights``
         (glsl/common/light_rows.glsl); 0 when they exceed it and stay in a texture."""
         width = light_row_texels(self.groups, self.model.spectral_size, precontract)
+        if self.model.lobe is not None:
+            width += LOBE_TEXELS
         return width if len(lights) * width <= MAX_LIGHT_BUFFER_TEXELS else 0
 
     def key(self, lights: list[SpectralLight], *, packs: int | None = None,
@@ -113,7 +119,8 @@ class GPUMaterial:
                          cosine_weighted=bool(model.cosine_weighted), precontract=precontract,
                          output=output, sphere=sphere,
                          light_stride=self.light_stride(lights, precontract),
-                         factors=self.precision)
+                         factors=self.precision,
+                         lobe_texel=lobe_texel(self.model, precontract))
 
     def light_texture(self, lights: list[SpectralLight], precontract: bool, lights_key=None):
         """The light rows for ``lights``, cached under ``lights_key`` when given: a uniform
@@ -169,5 +176,5 @@ def params_block(u: MaterialUniforms, display: DisplaySettings, view_origin=(0, 
         axis_lo=u.axis_lo, axis_span=u.axis_span, axis_flags=u.axis_flags,
         axis_cells=u.axis_cells, misc=(u.edge_rule, u.pack_rows, 0, 0),
         display=(display.exposure, display.tone_white, *target_size),
-        view_origin=view_origin, adaptation=adapt, xyz_to_rgb=rgb,
+        view_origin=view_origin, lobe=u.lobe, adaptation=adapt, xyz_to_rgb=rgb,
         view_projection=std140_mat4(vp))

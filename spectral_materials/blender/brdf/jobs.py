@@ -83,12 +83,13 @@ class SceneJobResult:
 
 
 def factor_options(inputs: sources.MaterialInputs, brdf, isotropic: bool) -> FactorOptions:
-    name = sources.resolve_auto(inputs.parameterization, isotropic)
+    name = sources.resolve_auto(inputs.parameterization, isotropic, inputs.lobe)
     param, isotropic = resolve_parameterization(brdf, name, isotropic, sources.WAVELENGTHS)
     resolution = sources.resolution_for(name, isotropic, inputs.theta_cells)
     return FactorOptions(parameterization=param.name, resolution=resolution,
                          isotropic=isotropic, packs=inputs.packs, target_de94=inputs.target_de94,
-                         pack_size=inputs.pack_size, smoothing=inputs.smoothing)
+                         pack_size=inputs.pack_size, smoothing=inputs.smoothing,
+                         lobe=inputs.lobe)
 
 
 def run_scene_job(plan: ScenePlan, callback: ProgressCallback | None = None, *,

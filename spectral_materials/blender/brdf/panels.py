@@ -74,6 +74,7 @@ class SPECTRAL_PT_material_settings(bpy.types.Panel):
         sub.prop(s, "target_de94", text="")
         layout.prop(s, "pack_size")
         layout.prop(s, "smoothing")
+        layout.prop(s, "specular_lobe")
         if not draw_job(layout, context):
             layout.operator("spectral.factor_material", icon="PLAY")
 

@@ -46,6 +46,14 @@ PARAMETERIZATION_ITEMS = [
      "layout when the BRDF is isotropic"),
     *((p.name.upper(), p.label, p.summary) for p in _OFFERED),
 ]
+#: The specular lobe settings (core/brdf/job.py LOBE_SETTINGS), identifiers upper-cased.
+LOBE_ITEMS = [
+    ("AUTO", "Automatic", "Fit an Ashikhmin–Shirley lobe; keep it where the material has a "
+                          "lobe of that shape and the packs measure better with it"),
+    ("OFF", "Off", "Factor packs alone"),
+    ("ASHIKHMIN_SHIRLEY", "Ashikhmin–Shirley", "Always fit and keep an Ashikhmin–Shirley "
+                                               "lobe with free Fresnel spectra"),
+]
 #: Property enum identifier → parameterisation name (sources.py resolves AUTO per BRDF).
 PARAMETERIZATION_KEYS = {"AUTO": "io", **{p.name.upper(): p.name for p in _OFFERED}}
 
@@ -68,6 +76,9 @@ class SPECTRAL_PG_result(bpy.types.PropertyGroup):
     cosine_weighted: BoolProperty(name="Cosine weighted",
                                   description="The factors hold f·cosθi rather than f")
     edge: StringProperty(name="Edge rule", description="θ-end rule of the lookups")
+    lobe: StringProperty(name="Specular lobe",
+                         description="The analytic lobe's family, empty when there is none "
+                                     "(its exponents and spectra are ID properties)")
     de94_mean: FloatProperty(name="Mean ΔE94", precision=3,
                              description="Mean ΔE94 under D65 at the protocol's 20 000 random "
                                          "direction pairs, against the 5 nm reference")
@@ -166,6 +177,10 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
                            description="Rank-one terms per pack; 4 fill one RGBA texel")
     smoothing: IntProperty(name="Smoothing", default=0, soft_min=0, soft_max=9,
                            description="Moving-average width on the angular factors; 0 = off")
+    specular_lobe: EnumProperty(
+        name="Specular lobe", items=LOBE_ITEMS, default="AUTO",
+        description="An analytic specular lobe evaluated beside the factor packs, which "
+                    "then hold only the rest: glossy highlights stay sharp at every angle")
     draw_precision: EnumProperty(
         name="Factor precision", items=DRAW_PRECISION_ITEMS, default="EXACT",
         update=_redraw_viewports,

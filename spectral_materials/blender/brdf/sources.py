@@ -85,6 +85,7 @@ class MaterialInputs:
     target_de94: float | None = None
     pack_size: int = 4
     smoothing: int = 0
+    lobe: str = "off"                         # core/brdf/job.py LOBE_SETTINGS
 
     def brdf(self):
         """The BRDF callable (may run in a worker thread)."""
@@ -102,7 +103,7 @@ class MaterialInputs:
             "file": self.file_sha256, "parameterization": self.parameterization,
             "theta_cells": self.theta_cells, "packs": self.packs,
             "target_de94": self.target_de94, "pack_size": self.pack_size,
-            "smoothing": self.smoothing,
+            "smoothing": self.smoothing, "lobe": self.lobe,
         }
 
 
@@ -135,10 +136,13 @@ def spectrum_from_source(group, owner: str, label: str) -> np.ndarray:
         raise SourceError(f"{what}: {exc}") from None
 
 
-def resolve_auto(parameterization: str, isotropic: bool) -> str:
-    """The parameterisation "Automatic" stands for, once isotropy is known."""
+def resolve_auto(parameterization: str, isotropic: bool, lobe: str = "off") -> str:
+    """The parameterisation "Automatic" stands for, once isotropy is known: with a specular
+    lobe the packs hold the smooth rest, which input/output angles separate best
+    (docs/bench_colour_targets.md); without one, anisotropic glossy models take
+    half/difference angles."""
     if parameterization == AUTO_GLOSSY:
-        return "io" if isotropic else "hd"
+        return "io" if isotropic or lobe != "off" else "hd"
     return parameterization
 
 
@@ -191,7 +195,8 @@ def material_inputs(material) -> MaterialInputs:
     common = dict(name=material.name, parameterization=parameterization,
                   theta_cells=int(s.theta_cells), packs=int(s.packs),
                   target_de94=float(s.target_de94) if s.use_target else None,
-                  pack_size=int(s.pack_size), smoothing=int(s.smoothing))
+                  pack_size=int(s.pack_size), smoothing=int(s.smoothing),
+                  lobe=s.specular_lobe.lower())
     if s.source == "FILE":
         path = _abspath(s.filepath)
         if not path:

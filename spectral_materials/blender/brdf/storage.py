@@ -12,8 +12,9 @@ texel groups for ``R`` rank-one terms (one factor pack of 4 terms = one group):
 
 Width is the longest of the axes, the spectral size and L. Row 0 is the image's
 bottom row (Blender's pixel order). The wavelengths (float64) are an ID property
-of the result group; everything else the :class:`FactoredBRDF` needs is a plain
-property there. Because images are full float and packed as lossless EXR, a stored
+of the result group, and so are an analytic lobe's exponents and spectra
+(``lobe_exponents``, ``lobe_spectral``: float32 values held as float64, exact);
+everything else the :class:`FactoredBRDF` needs is a plain property there. Because images are full float and packed as lossless EXR, a stored
 model loads back bit-identical to the float32 model that was stored.
 """
 
@@ -25,6 +26,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...core.brdf.factored import FactoredBRDF, json_default
+from ...core.brdf.lobe import SpecularLobe
 from ..images import (
     new_float_image as new_float_image,  # served from here too (BTF, PRT)
     remove_image as remove_image,
@@ -43,8 +45,13 @@ def as_stored(model: FactoredBRDF) -> FactoredBRDF:
     """The float32 model that storage keeps (what :func:`load_factored` returns)."""
     if model.form != "cp":
         raise StorageError("only CP factor packs are stored on materials")
+    lobe = model.lobe
+    if lobe is not None:
+        lobe = replace(lobe, nu=float(np.float32(lobe.nu)), nv=float(np.float32(lobe.nv)),
+                       spectral=np.ascontiguousarray(lobe.spectral, dtype=np.float32))
     return replace(
         model,
+        lobe=lobe,
         factors=[np.ascontiguousarray(f, dtype=np.float32) for f in model.factors],
         spectral=np.ascontiguousarray(model.spectral, dtype=np.float32),
         basis=None if model.basis is None else np.ascontiguousarray(model.basis, np.float32),
@@ -143,6 +150,11 @@ def apply_factored(material, stored: FactoredBRDF, images: tuple, input_hash: st
     result.report_json = json.dumps(stored.report, default=json_default)
     result["wavelengths"] = [float(w) for w in stored.wavelengths]
     result["basis_shape"] = [] if stored.basis is None else list(stored.basis.shape)
+    lobe = stored.lobe
+    result.lobe = "" if lobe is None else lobe.family
+    result["lobe_exponents"] = [] if lobe is None else [lobe.nu, lobe.nv]
+    result["lobe_spectral"] = [] if lobe is None else \
+        [float(v) for v in np.asarray(lobe.spectral, np.float64).ravel()]
     material.spectral.enabled = True
     # Memfile undo re-reads only IDs tagged as changed; property writes alone do not tag.
     material.update_tag()
@@ -179,7 +191,13 @@ def load_factored(material) -> FactoredBRDF:
         resolution = tuple(int(n) for n in result.resolution.split("x"))
         wavelengths = np.asarray(result["wavelengths"], dtype=np.float64)
         basis_shape = tuple(int(n) for n in result.get("basis_shape", []))
-    except (KeyError, ValueError) as exc:
+        lobe = None
+        if result.lobe:
+            nu, nv = (float(v) for v in result["lobe_exponents"])
+            spectral = np.asarray(result["lobe_spectral"], dtype=np.float64)
+            lobe = SpecularLobe(result.lobe, nu, nv,
+                                spectral.astype(np.float32).reshape(-1, 2))
+    except (KeyError, ValueError, TypeError) as exc:
         raise StorageError(f"{name}: stored factor metadata is incomplete ({exc})") from None
     width, height = image.size
     pixels = np.empty(width * height * CHANNELS, dtype=np.float32)
@@ -199,6 +217,7 @@ def load_factored(material) -> FactoredBRDF:
         wavelengths=wavelengths, basis=basis, cosine_weighted=result.cosine_weighted,
         form="cp", factors=arrays[:-1], spectral=arrays[-1], pack_size=result.pack_size,
         edge=result.edge or "linear", report=json.loads(result.report_json or "{}"),
+        lobe=lobe,
     )
     try:
         model.validate()

@@ -15,7 +15,8 @@ from pathlib import Path
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.filtered_factors import FACTOR_PRECISIONS, PRECISION_TEXELS
 from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
-from ...core.brdf.shading import light_row_texels
+from ...core.brdf.lobe import DENOMINATOR_FLOOR
+from ...core.brdf.shading import LOBE_TEXELS, light_row_texels
 from ...core.lights import LIGHT_CODES
 from .outputs import SURFACE_REQUESTS, output_defines
 
@@ -28,7 +29,8 @@ PARAMETERIZATION_CODES = {name: code for code, name in enumerate(PARAMETERIZATIO
 #: Fragment sources in the order they are concatenated (each uses the ones before).
 FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/axis_lookup.glsl",
                     "brdf/factor_packs.glsl", "common/light_rows.glsl",
-                    "brdf/spectral_basis.glsl", "common/lights.glsl", "common/frame.glsl",
+                    "brdf/spectral_basis.glsl", "brdf/specular_lobe.glsl",
+                    "common/lights.glsl", "common/frame.glsl",
                     "common/colour_pipeline.glsl")
 
 #: Lights one variant draws. The light loop may be unrolled into one copy of the pack
@@ -116,6 +118,9 @@ class ShaderKey:
     light_stride: int = 0
     #: How the factor texture is read (``filtered_factors.FACTOR_PRECISIONS``).
     factors: str = "exact"
+    #: Light-row texel of an analytic lobe's two weights (glsl/brdf/specular_lobe.glsl);
+    #: 0: the model has no lobe.
+    lobe_texel: int = 0
 
     def defines(self) -> dict[str, str]:
         out = {
@@ -133,6 +138,8 @@ class ShaderKey:
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             **output_defines(SURFACE_REQUESTS[self.output]),
             **factor_defines(self.factors),
+            "SM_LOBE_TEXEL": str(self.lobe_texel),
+            "SM_LOBE_DENOMINATOR_FLOOR": f"{DENOMINATOR_FLOOR:.9g}",
         }
         if self.sphere:
             out["SM_GEOMETRY_SPHERE"] = "1"
@@ -164,6 +171,11 @@ class ShaderKey:
         # A row holds the header and 3 texels per pack (pre-contracted) or one per
         # coefficient; a shorter stride would read the next light's row.
         needed = light_row_texels(self.packs, self.coefficients, self.precontract)
+        if self.lobe_texel:
+            if self.lobe_texel < needed:
+                raise ValueError(f"the lobe's texel {self.lobe_texel} overlaps the "
+                                 f"{needed} texels of the packs' light weights")
+            needed = self.lobe_texel + LOBE_TEXELS
         if self.light_stride and self.light_stride < needed:
             raise ValueError(f"light rows of {self.light_stride} texels are shorter than the "
                              f"{needed} this variant reads")

@@ -27,6 +27,7 @@ from ..decomposition import cp, separable
 from ..progress import ProgressCallback, report, scaled
 from . import metrics
 from .factored import FactoredBRDF
+from .lobe import LOBE_FAMILIES, LobeResidual, SpecularLobe, fit_lobe
 from .mode_weighting import mode_weights, scale_modes
 from .params import Parameterization, get_parameterization
 from .tabulate import Grid, Table, tabulate
@@ -103,6 +104,7 @@ def factor_brdf(
     nd_norm: float = 2.0,
     smoothing: int = 0,
     settings: cp.ALSSettings | None = None,
+    lobe: str | SpecularLobe | None = None,
 ) -> FactoredBRDF:
     """Factor a spectral BRDF into CP factor packs or a Kautz–McCool separable form.
 
@@ -151,6 +153,10 @@ def factor_brdf(
     smoothing : int
         Width of a moving-average filter applied to the angular CP factors
         (paper §4.1, Fig. 4); 0 = off. Periodic axes wrap.
+    lobe : str, SpecularLobe or None
+        An analytic specular lobe beside the packs (:mod:`.lobe`): a family of
+        ``LOBE_FAMILIES`` is fitted, a ``SpecularLobe`` on the basis used as given; the
+        packs then factor the residual. None (default): packs alone.
 
     Returns
     -------
@@ -163,6 +169,7 @@ def factor_brdf(
         pack_size=pack_size, spectral_basis=spectral_basis, callback=callback, seed=seed,
         method=method, cosine_weighted=cosine_weighted, compress_tolerance=compress_tolerance,
         weighting=weighting, nd_norm=nd_norm, smoothing=smoothing, settings=settings,
+        lobe=lobe,
     )
     return series[-1]
 
@@ -183,8 +190,14 @@ def resolve_parameterization(brdf, name: str, isotropic: bool | None,
 
 def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=None,
                   wavelengths=None, spectral_basis=None, cosine_weighted=True,
-                  callback=None) -> Table:
-    """Steps 1–3 of :func:`factor_brdf`: parameterisation, basis and tabulation."""
+                  lobe: str | SpecularLobe | None = None, callback=None) -> Table:
+    """Steps 1–3 of :func:`factor_brdf`: parameterisation, basis and tabulation.
+
+    ``lobe``: a family of :data:`.lobe.LOBE_FAMILIES` fits an analytic lobe
+    (:func:`.lobe.fit_lobe`) after the basis, a :class:`.lobe.SpecularLobe` (on that
+    basis) is used as given; the table then holds the residual ``f − lobe`` and carries
+    the lobe (``Table.lobe``).
+    """
     if not callable(brdf):
         raise TypeError(f"brdf must be callable f(wi, wo, wavelengths), got {type(brdf).__name__}")
     wl = spectra.check_wavelengths(
@@ -193,8 +206,24 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
     grid = Grid(param, tuple(resolution) if resolution is not None else param.default_resolution)
     report(callback, 0.0, "spectral basis" if spectral_basis is not None else "tabulating")
     basis = None if spectral_basis is None else build_basis(brdf, wl, isotropic, spectral_basis)
-    return tabulate(brdf, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
-                    callback=callback)
+    if lobe is None:
+        return tabulate(brdf, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
+                        callback=callback)
+    fit_report = {}
+    if isinstance(lobe, str):
+        if lobe not in LOBE_FAMILIES:
+            raise ValueError(f"lobe must be one of {LOBE_FAMILIES} or a SpecularLobe, "
+                             f"got {lobe!r}")
+        fit = fit_lobe(brdf, wl, basis, isotropic=isotropic, family=lobe,
+                       callback=scaled(callback, 0.0, 0.5))
+        lobe = fit.lobe
+        fit_report = {"lobe_fit_seconds": fit.seconds, "lobe_fit_gain": fit.gain,
+                      "lobe_fit_evaluations": fit.evaluations}
+    residual = LobeResidual(brdf, lobe, wl, None if basis is None else basis.vectors)
+    table = tabulate(residual, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
+                     callback=scaled(callback, 0.5 if fit_report else 0.0, 1.0), signed=True)
+    table.lobe, table.lobe_report = lobe, fit_report
+    return table
 
 
 def factor_brdf_series(
@@ -241,6 +270,7 @@ def factor_brdf_series(
         cosine_weighted=table.cosine_weighted, pack_size=pack_size,
         # f·cosθi is 0 at θi = 90°; an uncosined table is not, and keeps extrapolating.
         edge="horizon" if table.cosine_weighted else "linear",
+        lobe=table.lobe,
     )
     common_report = {
         "method": method, "seed": seed, "grid": table.grid.describe(),
@@ -248,6 +278,7 @@ def factor_brdf_series(
         "tabulate_seconds": tabulated - start,
         "basis_relative_error": float(np.sqrt(table.basis_error_sq / table.norm_sq))
         if table.norm_sq > 0 else 0.0,
+        **table.lobe_report,
     }
     sub = scaled(callback, 0.3, 1.0)
     if method in ("svd", "nd"):

@@ -8,7 +8,8 @@ samples (``basis is None``) or coefficients on an orthonormal basis Ψ (L, m).
 
 Evaluation interpolates each factor linearly along its axes (φ wraps, θ ends
 extrapolate), which is exactly what a GPU's linear texture filter does with the
-same arrays.
+same arrays. A model may carry an analytic specular lobe (:mod:`.lobe`) whose value
+is added to the packs'; the packs then hold the residual.
 
 File format (``save``/``load``): an uncompressed ``.npz`` whose ``meta`` entry
 is a JSON document; see README §"Factor file format" for every array.
@@ -25,6 +26,7 @@ import numpy as np
 
 from ..colour import pipeline as colour_pipeline, spectra
 from .axes import EDGE_RULES
+from .lobe import SpecularLobe
 from .params import check_direction_pairs, get_parameterization
 from .tabulate import Grid, multilinear
 
@@ -50,6 +52,8 @@ class FactoredBRDF:
     h: np.ndarray | None = None            # separable: (prod col shape · S, K)
     edge: str = "linear"
     report: dict = field(default_factory=dict)
+    #: An analytic lobe added to the packs (which then hold the residual), or None.
+    lobe: SpecularLobe | None = None
 
     # ------------------------------------------------------------------ shape
 
@@ -74,7 +78,7 @@ class FactoredBRDF:
     def nbytes(self) -> int:
         """Bytes of the stored factor arrays (float32), basis included."""
         arrays = self.factors + [self.spectral] if self.form == "cp" else [self.g, self.h]
-        total = sum(a.size * 4 for a in arrays)
+        total = sum(a.size * 4 for a in arrays) + (0 if self.lobe is None else self.lobe.nbytes)
         return int(total + (0 if self.basis is None else self.basis.size * 4))
 
     # ------------------------------------------------------------- evaluation
@@ -91,9 +95,18 @@ class FactoredBRDF:
             out = self._separable_coefficients(grid.lookup(coords, self.edge))
         if scale is not None:
             out *= scale[:, None]
+        if self.lobe is not None:
+            out += self.lobe_coefficients(wi, wo)
         lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         out[~lit] = 0.0
         return out
+
+    def lobe_coefficients(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """(N, S): the lobe's part of :meth:`coefficients` (cosine-weighted as the packs)."""
+        terms = self.lobe.angular(wi, wo)
+        if self.cosine_weighted:
+            terms = terms * np.clip(np.asarray(wi)[:, 2:3], 0.0, None)
+        return _contract(terms, self.lobe.spectral)
 
     def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
         """(N, R): per term, the product over the axes of each factor interpolated at
@@ -198,6 +211,8 @@ class FactoredBRDF:
             "cosine_weighted": self.cosine_weighted,
             "edge": self.edge,
             "split": None if self.split is None else [list(s) for s in self.split],
+            "lobe": None if self.lobe is None else {
+                "family": self.lobe.family, "nu": self.lobe.nu, "nv": self.lobe.nv},
             "spectral_axis": "wavelength" if self.basis is None else "basis",
             "units": {"wavelengths": "nm", "factors": "1/sr (product of all factors)"},
             "report": self.report,
@@ -216,6 +231,8 @@ class FactoredBRDF:
         else:
             arrays["g"] = self.g.astype(np.float32)
             arrays["h"] = self.h.astype(np.float32)
+        if self.lobe is not None:
+            arrays["lobe_spectral"] = np.asarray(self.lobe.spectral, dtype=np.float32)
         arrays["meta"] = np.frombuffer(json.dumps(self._meta(), default=json_default).encode(),
                                        dtype=np.uint8)
         with open(path, "wb") as handle:
@@ -267,6 +284,10 @@ class FactoredBRDF:
             form=meta["form"], pack_size=int(meta["pack_size"]), edge=meta["edge"],
             report=meta.get("report", {}),
         )
+        lobe = meta.get("lobe")
+        if lobe is not None:
+            kwargs["lobe"] = SpecularLobe(str(lobe["family"]), float(lobe["nu"]),
+                                          float(lobe["nv"]), arrays["lobe_spectral"])
         if meta["form"] == "cp":
             kwargs["factors"] = [arrays[f"factor_{k}"] for k in range(len(resolution))]
             kwargs["spectral"] = arrays["spectral"]
@@ -309,6 +330,11 @@ class FactoredBRDF:
         for name, a in arrays.items():
             if not np.isfinite(a).all():
                 raise ValueError(f"{name} has {int((~np.isfinite(a)).sum())} non-finite values")
+        if self.lobe is not None:
+            self.lobe.validate()
+            if self.lobe.spectral.shape[0] != s:
+                raise ValueError(f"the lobe has {self.lobe.spectral.shape[0]} spectral "
+                                 f"values, the model {s}")
 
 
 def _contract(a: np.ndarray, b: np.ndarray) -> np.ndarray:

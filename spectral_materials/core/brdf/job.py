@@ -13,12 +13,29 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..colour import spectra
 from ..colour.basis import LinearModelBasis
 from ..progress import ProgressCallback, report, scaled
 from ..raster_plots import plot_error_against_packs
 from . import metrics
 from .factor import factor_brdf_series
 from .factored import FactoredBRDF
+from .lobe import LOBE_FAMILIES, SpecularLobe, fit_lobe
+
+#: Lobe settings of :class:`FactorOptions`: none, chosen by the fit, or a family forced.
+LOBE_SETTINGS = ("off", "auto", *LOBE_FAMILIES)
+#: "auto" tries a fitted lobe when it makes the fit's weighted RMS at least this many times
+#: smaller than a smooth surface alone: glossy analytic models measure 3–70, the MERL
+#: round trip 12, Oren–Nayar 1.3 and Lambert 1 (tests/core/brdf/test_lobe.py).
+LOBE_MIN_GAIN = 2.0
+#: ... and keeps it without measuring the packs both ways when the gain is at least this:
+#: the lobe's family is then the BRDF's own (60–70 measured), and the second series would
+#: double the time.
+LOBE_SURE_GAIN = 20.0
+#: Pairs on which "auto" compares the packs with and without the lobe: not the protocol's
+#: (seed), so that the choice never sees the pairs it is measured at.
+LOBE_CHECK_PAIRS = 4000
+LOBE_CHECK_SEED = 424242
 
 
 @dataclass
@@ -33,6 +50,8 @@ class FactorOptions:
     pack_size: int = 4
     smoothing: int = 0
     seed: int = 0
+    #: An analytic specular lobe beside the packs (:data:`LOBE_SETTINGS`, core/brdf/lobe.py).
+    lobe: str = "off"
 
 
 @dataclass
@@ -59,20 +78,33 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     start = time.perf_counter()
     report(callback, 0.0, "reference colours")
     error = metrics.ProtocolError(brdf)
+    lobe, lobe_report = choose_lobe(brdf, basis, options, scaled(callback, 0.05, 0.1))
     counts = None if options.target_de94 is not None else list(range(1, options.packs + 1))
-    models = factor_brdf_series(
-        brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
-        pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
-        parameterization=options.parameterization, isotropic=options.isotropic,
-        resolution=options.resolution, spectral_basis=basis,
-        callback=scaled(callback, 0.05, 0.9))
+
+    def fit(with_lobe, low, high):
+        return factor_brdf_series(
+            brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
+            pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
+            parameterization=options.parameterization, isotropic=options.isotropic,
+            resolution=options.resolution, spectral_basis=basis, lobe=with_lobe,
+            callback=scaled(callback, low, high))
+
+    if lobe is not None and options.lobe == "auto" and lobe_report["lobe_fit_gain"] < LOBE_SURE_GAIN:
+        models, lobe_report = _keep_the_better(brdf, fit(lobe, 0.1, 0.5), fit(None, 0.5, 0.9),
+                                               lobe_report)
+    else:
+        models = fit(lobe, 0.1, 0.9)
     report(callback, 0.9, "measuring ΔE94")
     series = []
     for model in models:
         stats = error.stats(model)
+        model.report.update(lobe_report)
         series.append({"packs": model.packs, "de94": stats,
                        "seconds": float(model.report.get("factor_seconds", 0.0))
-                       + float(model.report.get("tabulate_seconds", 0.0))})
+                       + float(model.report.get("tabulate_seconds", 0.0))
+                       # the lobe's fit and, under "auto", the series not kept
+                       + float(lobe_report.get("lobe_fit_seconds", 0.0))
+                       + float(lobe_report.get("lobe_choice_seconds", 0.0))})
     final = models[-1]
     if options.target_de94 is not None:
         # The stopping rule's cheaper estimate, for the plot's earlier counts.
@@ -91,3 +123,47 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     report(callback, 1.0, "done")
     return MaterialJobResult(model=final, series=series, plot=plot, seconds=seconds,
                              models=list(models) if options.target_de94 is None else [final])
+
+
+def choose_lobe(brdf, basis: LinearModelBasis | None, options: FactorOptions,
+                callback: ProgressCallback | None = None
+                ) -> tuple[SpecularLobe | None, dict]:
+    """The analytic lobe ``options.lobe`` asks for, on ``basis``, and its fit's figures.
+
+    "off": none. A family: that family's fitted lobe. "auto": the Ashikhmin–Shirley
+    lobe when it explains the BRDF :data:`LOBE_MIN_GAIN` times better than a smooth
+    surface alone (``LobeFit.gain``), else none; below :data:`LOBE_SURE_GAIN`,
+    :func:`factor_material` then keeps it only where the packs with it measure better
+    than without.
+    """
+    if options.lobe not in LOBE_SETTINGS:
+        raise ValueError(f"lobe must be one of {LOBE_SETTINGS}, got {options.lobe!r}")
+    if options.lobe == "off":
+        return None, {"lobe": "off"}
+    family = LOBE_FAMILIES[0] if options.lobe == "auto" else options.lobe
+    wavelengths = spectra.WAVELENGTHS_REFERENCE if basis is None else basis.wavelengths
+    isotropic = bool(options.isotropic) or str(options.parameterization).endswith("_iso")
+    fit = fit_lobe(brdf, wavelengths, basis, isotropic=isotropic, family=family,
+                   callback=callback)
+    kept = options.lobe != "auto" or fit.gain >= LOBE_MIN_GAIN
+    figures = {"lobe": options.lobe, "lobe_kept": kept, "lobe_fit_gain": fit.gain,
+               "lobe_fit_seconds": fit.seconds, "lobe_fit_evaluations": fit.evaluations}
+    return (fit.lobe if kept else None), figures
+
+
+def _keep_the_better(brdf, with_lobe: list[FactoredBRDF], without: list[FactoredBRDF],
+                     figures: dict) -> tuple[list[FactoredBRDF], dict]:
+    """The series whose final model has the lower mean ΔE94 (D65) at the check pairs.
+
+    A lobe of the wrong shape can cost more than it saves (an Ashikhmin–Shirley lobe on
+    GGX: docs/bench_colour_targets.md), so "auto" measures both rather than assume.
+    """
+    check = metrics.ProtocolError(brdf, count=LOBE_CHECK_PAIRS, seed=LOBE_CHECK_SEED)
+    means = [check.stats(series[-1])["mean"] for series in (with_lobe, without)]
+    kept = means[0] < means[1]
+    other = (without if kept else with_lobe)[-1]
+    seconds = (float(other.report.get("factor_seconds", 0.0))
+               + float(other.report.get("tabulate_seconds", 0.0)))
+    figures = {**figures, "lobe_kept": kept, "lobe_check_de94": means[0],
+               "no_lobe_check_de94": means[1], "lobe_choice_seconds": seconds}
+    return (with_lobe if kept else without), figures

@@ -124,8 +124,8 @@ class ProtocolError:
     ``stats(model)`` measures any model with an ``xyz(wi, wo, illuminant)`` method.
     """
 
-    def __init__(self, brdf, count: int = RANDOM_PAIRS):
-        self.wi, self.wo = random_direction_pairs(count)
+    def __init__(self, brdf, count: int = RANDOM_PAIRS, seed: int = RANDOM_PAIRS_SEED):
+        self.wi, self.wo = random_direction_pairs(count, seed)
         self.reference = reference_xyz(brdf, self.wi, self.wo, "D65")
 
     def stats(self, model) -> dict:

@@ -23,6 +23,9 @@ from .factored import FactoredBRDF
 
 #: Texels before the spectral weights in a light-texture row (glsl/common/lights.glsl).
 LIGHT_HEADER = 3
+#: Texels after the packs' light weights in the row of a model with an analytic lobe: the
+#: XYZ weights of its two spectra (glsl/brdf/specular_lobe.glsl).
+LOBE_TEXELS = 2
 #: A tangent whose part orthogonal to n is this short (squared) carries no direction.
 TANGENT_EPS_SQ = 1e-8
 
@@ -115,6 +118,13 @@ def light_row_texels(packs: int, coefficients: int, precontract: bool) -> int:
     return LIGHT_HEADER + (3 * int(packs) if precontract else int(coefficients))
 
 
+def lobe_texel(model: FactoredBRDF, precontract: bool) -> int:
+    """Where a light row's lobe weights start (after the packs'), 0 without a lobe."""
+    if model.lobe is None:
+        return 0
+    return light_row_texels(-(-model.terms // 4), model.spectral_size, precontract)
+
+
 def xyz_texels(weights: np.ndarray) -> np.ndarray:
     """(S, 4): spectral XYZ weights (S, 3), one texel each (xyz, w = 0)."""
     out = np.zeros((len(weights), 4))
@@ -128,7 +138,8 @@ def light_texels(model: FactoredBRDF, lights: list[SpectralLight], *,
 
     After the header (:func:`light_rows`): with ``precontract``, 3 texels per pack holding
     the X, Y, Z weights of its 4 terms, ``K = spectralᵀ Ĩ``; without, the light's
-    spectral weights Ĩ_j (one texel each, xyz).
+    spectral weights Ĩ_j (one texel each, xyz). A model with an analytic lobe adds
+    :data:`LOBE_TEXELS` texels (at :func:`lobe_texel`): its spectra's weights ``cᵀĨ``.
     """
     if model.form != "cp":
         raise ValueError("the GPU path draws CP factor packs; refactor separable models as CP")
@@ -139,9 +150,14 @@ def light_texels(model: FactoredBRDF, lights: list[SpectralLight], *,
     def after_header(light: SpectralLight) -> np.ndarray:
         weights = light.weights(model.wavelengths, model.basis)          # (S, 3)
         if not precontract:
-            return xyz_texels(weights)
-        k = spectral.T @ weights                                          # (4G, 3)
-        return k.reshape(groups, 4, 3).transpose(0, 2, 1).reshape(3 * groups, 4)
+            texels = xyz_texels(weights)
+        else:
+            k = spectral.T @ weights                                      # (4G, 3)
+            texels = k.reshape(groups, 4, 3).transpose(0, 2, 1).reshape(3 * groups, 4)
+        if model.lobe is None:
+            return texels
+        lobe = xyz_texels(np.asarray(model.lobe.spectral, np.float64).T @ weights)
+        return np.concatenate([texels, lobe])
 
     return light_rows(lights, after_header)
 

@@ -17,7 +17,7 @@ what the protocol's colour error weighs.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from ..colour.basis import LinearModelBasis
 from ..errors import InvalidBRDFData
 from ..progress import ProgressCallback, report
 from .params import Parameterization, axis_lookup, horizon_scale
+from .lobe import SpecularLobe
 
 #: Refuse grids beyond this many samples (angular × spectral): a clear error
 #: instead of an out-of-memory crash.
@@ -116,6 +117,9 @@ class Table:
         ``Σ ‖s − ΨΨᵀs‖²`` of the spectra lost by the basis projection (0 without one).
     norm_sq : float
         ``Σ ‖s‖²`` of the unprojected spectra (float64).
+    lobe : SpecularLobe or None
+        The analytic lobe taken out of the BRDF before tabulating (``values`` is then the
+        residual), set by ``factor.prepare_table``.
     """
 
     values: np.ndarray
@@ -127,6 +131,8 @@ class Table:
     basis_error_sq: float
     norm_sq: float
     seconds: float
+    lobe: SpecularLobe | None = None
+    lobe_report: dict = field(default_factory=dict)
 
     def xyz(self, wi: np.ndarray, wo: np.ndarray, illuminant: str | np.ndarray = "D65",
             chunk: int = 8192) -> np.ndarray:
@@ -172,13 +178,13 @@ def _table_depth(grid: Grid, wl: np.ndarray, basis: LinearModelBasis | None) -> 
 
 
 def _sample_chunk(brdf, grid: Grid, flat: np.ndarray, wl: np.ndarray, cosine_weighted: bool,
-                  counts: dict, *, locate: bool
+                  counts: dict, *, locate: bool, signed: bool = False
                   ) -> tuple[np.ndarray | None, np.ndarray, str | None]:
     """The BRDF at the grid points ``flat`` where both directions are above the horizon.
 
     Returns (samples (lit points, L) or None if none is lit, the lit mask, None). Where
-    the BRDF returns NaN, inf or negative values they are added to ``counts`` and the
-    result is (None, mask, where the first sit if ``locate`` else "").
+    the BRDF returns NaN, inf or (unless ``signed``) negative values they are added to
+    ``counts`` and the result is (None, mask, where the first sit if ``locate`` else "").
     """
     wi, wo, ok = grid.parameterization.inverse(grid.coords(flat))
     ok = ok & (wi[:, 2] > 0) & (wo[:, 2] > 0)
@@ -188,7 +194,7 @@ def _sample_chunk(brdf, grid: Grid, flat: np.ndarray, wl: np.ndarray, cosine_wei
     if f.shape != (int(ok.sum()), wl.size):
         expected = (int(ok.sum()), wl.size)
         raise ValueError(f"BRDF returned shape {f.shape}, expected {expected}")
-    bad = ~np.isfinite(f) | (f < 0)
+    bad = ~np.isfinite(f) if signed else ~np.isfinite(f) | (f < 0)
     if bad.any():
         counts["nan"] += int(np.isnan(f).sum())
         counts["inf"] += int(np.isinf(f).sum())
@@ -212,13 +218,17 @@ def tabulate(
     basis: LinearModelBasis | None = None,
     callback: ProgressCallback | None = None,
     chunk_points: int = CHUNK_POINTS,
+    signed: bool = False,
 ) -> Table:
     """Sample ``brdf(wi, wo, wavelengths)`` at every grid point.
+
+    ``signed`` accepts negative samples: a residual beside an analytic lobe
+    (:class:`.lobe.LobeResidual`) is one; a BRDF is not.
 
     Raises
     ------
     InvalidBRDFData
-        If the BRDF returns NaN, inf or negative values; the message gives their
+        If the BRDF returns NaN, inf or (unless ``signed``) negative values; the message gives their
         counts and the first locations (angles in degrees, wavelength in nm).
     ValueError
         For a grid too large to hold, or a BRDF returning the wrong shape.
@@ -237,7 +247,7 @@ def tabulate(
     for begin in range(0, grid.size, chunk_points):
         flat = np.arange(begin, min(begin + chunk_points, grid.size))
         f, ok, where = _sample_chunk(brdf, grid, flat, wl, cosine_weighted, counts,
-                                     locate=not first_bad)
+                                     locate=not first_bad, signed=signed)
         if where is not None:  # bad samples: counted, the chunk left out
             first_bad = first_bad or where
             continue
