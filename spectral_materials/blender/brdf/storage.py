@@ -14,8 +14,9 @@ Width is the longest of the axes, the spectral size and L. Row 0 is the image's
 bottom row (Blender's pixel order). The wavelengths (float64) are an ID property
 of the result group, and so are an analytic lobe's exponents and spectra
 (``lobe_exponents``, ``lobe_spectral``: float32 values held as float64, exact);
-everything else the :class:`FactoredBRDF` needs is a plain property there. Because images are full float and packed as lossless EXR, a stored
-model loads back bit-identical to the float32 model that was stored.
+everything else the :class:`FactoredBRDF` needs is a plain property there. Because
+images are full float and packed as lossless EXR, a stored model loads back
+bit-identical to the float32 model that was stored.
 """
 
 from __future__ import annotations

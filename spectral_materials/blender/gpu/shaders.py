@@ -14,8 +14,8 @@ from pathlib import Path
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.filtered_factors import FACTOR_PRECISIONS, PRECISION_TEXELS
-from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
 from ...core.brdf.lobe import DENOMINATOR_FLOOR
+from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
 from ...core.brdf.shading import LOBE_TEXELS, light_row_texels
 from ...core.lights import LIGHT_CODES
 from .outputs import SURFACE_REQUESTS, output_defines

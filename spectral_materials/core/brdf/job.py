@@ -89,7 +89,9 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
             resolution=options.resolution, spectral_basis=basis, lobe=with_lobe,
             callback=scaled(callback, low, high))
 
-    if lobe is not None and options.lobe == "auto" and lobe_report["lobe_fit_gain"] < LOBE_SURE_GAIN:
+    undecided = lobe is not None and options.lobe == "auto" \
+        and lobe_report["lobe_fit_gain"] < LOBE_SURE_GAIN
+    if undecided:
         models, lobe_report = _keep_the_better(brdf, fit(lobe, 0.1, 0.5), fit(None, 0.5, 0.9),
                                                lobe_report)
     else:

@@ -25,8 +25,8 @@ from ..colour import pipeline as colour_pipeline, spectra
 from ..colour.basis import LinearModelBasis
 from ..errors import InvalidBRDFData
 from ..progress import ProgressCallback, report
-from .params import Parameterization, axis_lookup, horizon_scale
 from .lobe import SpecularLobe
+from .params import Parameterization, axis_lookup, horizon_scale
 
 #: Refuse grids beyond this many samples (angular × spectral): a clear error
 #: instead of an out-of-memory crash.
