@@ -71,6 +71,9 @@ def test_up_to_date_material_is_skipped_and_changes_refactor(clean_scene):
 def test_more_packs_lower_the_error(clean_scene):
     material = spectral_material(model="ASHIKHMIN_SHIRLEY", packs=4, theta_cells=12)
     material.spectral.nu = material.spectral.nv = 16.0
+    # Packs alone: with the lobe (test_a_glossy_material_keeps_its_lobe) one pack already
+    # holds the smooth rest, and more change the mean by less than the noise.
+    material.spectral.specular_lobe = "OFF"
     assert _factor() == {"FINISHED"}
     import json
     series = json.loads(material.spectral.result.report_json)["series"]
@@ -214,3 +217,26 @@ def test_factor_a_tabulated_data_file(clean_scene, tmp_path):
     digest = r.input_hash
     path.write_bytes(path.read_bytes())          # same contents: still up to date
     assert _factor() == {"FINISHED"} and material.spectral.result.input_hash == digest
+
+
+def test_a_glossy_material_keeps_its_lobe(clean_scene):
+    """Automatic: a glossy model gets the lobe, stored on the material and reloaded
+    bit-identical; its measured error is the protocol's, below the packs alone."""
+    from spectral_materials.blender.brdf import storage
+
+    material = spectral_material(model="ASHIKHMIN_SHIRLEY", packs=2, theta_cells=12)
+    material.spectral.nu, material.spectral.nv = 8.0, 64.0
+    assert material.spectral.specular_lobe == "AUTO"
+    assert _factor() == {"FINISHED"}
+    result = material.spectral.result
+    assert result.lobe == "ashikhmin_shirley" and result.parameterization == "io"
+    model = storage.load_factored(material)
+    assert model.lobe.nu == pytest.approx(8.0, rel=0.02)
+    assert model.lobe.nv == pytest.approx(64.0, rel=0.02)
+    with_lobe = result.de94_mean
+    reloaded = storage.load_factored(material)
+    np.testing.assert_array_equal(reloaded.lobe.spectral, model.lobe.spectral)
+    material.spectral.specular_lobe = "OFF"
+    assert _factor() == {"FINISHED"}
+    assert result.lobe == "" and storage.load_factored(material).lobe is None
+    assert result.de94_mean > 2.0 * with_lobe

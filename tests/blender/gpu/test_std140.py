@@ -77,7 +77,7 @@ def _display() -> DisplaySettings:
 def test_factor_pack_block_bytes_are_unchanged():
     u = SimpleNamespace(axis_lo=RNG.random(4), axis_span=RNG.random(4),
                         axis_flags=(1, 0, 2, 3), axis_cells=(16, 32, 16, 1), edge_rule=True,
-                        pack_rows=3)
+                        pack_rows=3, lobe=(8.5, 64.25, 0.0, 0.0))
     display, vp = _display(), RNG.random((4, 4))
     # The packer as it was: its parts concatenated in the declared order.
     adapt, rgb, _ = display_matrices(tuple(display.scene_white))
@@ -85,10 +85,11 @@ def test_factor_pack_block_bytes_are_unchanged():
              np.asarray(u.axis_flags, np.int32), np.asarray(u.axis_cells, np.int32),
              np.asarray((u.edge_rule, u.pack_rows, 0, 0), np.int32),
              np.asarray((display.exposure, display.tone_white, 64.0, 48.0), np.float32),
-             np.asarray((0.1, 0.2, 0.3, 1.0), np.float32), adapt, rgb, std140_mat4(vp)]
+             np.asarray((0.1, 0.2, 0.3, 1.0), np.float32),
+             np.asarray(u.lobe, np.float32), adapt, rgb, std140_mat4(vp)]
     expected = b"".join(np.ascontiguousarray(p).tobytes() for p in parts)
     got = gpu_material.params_block(u, display, (0.1, 0.2, 0.3, 1.0), vp, (64.0, 48.0))
-    assert got == expected and len(got) == gpu_material.PARAMS_BYTES == 304
+    assert got == expected and len(got) == gpu_material.PARAMS_BYTES == 320
 
 
 def test_prt_block_bytes_are_unchanged():

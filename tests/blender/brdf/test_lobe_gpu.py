@@ -1,0 +1,97 @@
+"""Factor packs with an analytic specular lobe (core/brdf/lobe.py) drawn by the shaders
+against the float64 mirror (core/brdf/shading.py), pixel by pixel.
+
+The lobe is where the highlight is: incidences to 85°, a near-mirror lobe, several
+lights of every kind (the packs-outermost loop), the per-coefficient mode, a filtered
+16-bit precision and truncated packs. Bound: the issue's max ΔE94 ≤ 0.1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from gpu_helpers import DARK_Y, MAX_DE94, SIZE, WL, delta_e, lights_pair, protocol_pair, spd
+
+from spectral_materials.blender.brdf.sphere import render_sphere
+from spectral_materials.core.brdf import models
+from spectral_materials.core.brdf.factor import factor_brdf
+from spectral_materials.core.brdf.filtered_factors import drawn_model
+from spectral_materials.core.brdf.shading import sphere_xyz
+from spectral_materials.core.colour import spectra
+from spectral_materials.core.lights import SpectralLight
+
+pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
+
+CASES = ((0.0, "D65"), (40.0, "FL2"), (70.0, "A"), (85.0, "FL11"))
+
+
+def _lobe_model(parameterization: str, nu: float, nv: float, patch: int = 12):
+    brdf = models.make_model("ashikhmin_shirley", nu=nu, nv=nv,
+                             diffuse=(WL, spectra.colorchecker(patch, WL)), specular=0.05)
+    iso = parameterization.endswith("_iso")
+    resolution = (16, 32, 16) if iso else (12, 12, 12, 12)
+    model = factor_brdf(brdf, parameterization=parameterization, isotropic=iso,
+                        resolution=resolution, packs=2, spectral_basis=8,
+                        lobe="ashikhmin_shirley")
+    assert model.lobe is not None
+    return model
+
+
+@pytest.fixture(scope="module")
+def lobe_models():
+    return {"io_iso": _lobe_model("io_iso", 32.0, 32.0),
+            "io": _lobe_model("io", 8.0, 64.0, patch=6),
+            "mirror": _lobe_model("io_iso", 3000.0, 3000.0, patch=3)}
+
+
+def _check(got, reference, illuminant, what):
+    lit = reference[:, 1] > DARK_Y
+    assert lit.sum() > 300, f"{what}: the sphere is barely lit"
+    de = delta_e(reference, got, illuminant)
+    assert de.max() <= MAX_DE94, f"{what}: max ΔE94 {de.max():.4g}"
+    return de.max()
+
+
+@pytest.mark.parametrize("precontract", [True, False], ids=["precontract", "per_coefficient"])
+@pytest.mark.parametrize("name", ["io_iso", "io", "mirror"])
+def test_lobe_sphere_matches_mirror(lobe_models, name, precontract):
+    model = lobe_models[name]
+    for incidence, illuminant in CASES:
+        got, reference = protocol_pair(model, incidence, illuminant, precontract=precontract)
+        _check(got, reference, illuminant, f"{name} {incidence}° {illuminant}")
+
+
+def test_lobe_changes_the_image(lobe_models):
+    """The lobe is drawn: without it the same packs give another highlight."""
+    model = lobe_models["io_iso"]
+    with_lobe, _ = protocol_pair(model, 40.0)
+    without, reference = protocol_pair(replace(model, lobe=None), 40.0)
+    assert delta_e(with_lobe, without).max() > 5.0
+    assert delta_e(reference, without).max() <= MAX_DE94     # the mirror follows too
+
+
+@pytest.mark.parametrize("precontract", [True, False], ids=["precontract", "per_coefficient"])
+def test_lobe_under_several_lights(lobe_models, precontract):
+    lights = [SpectralLight("SUN", spd("D65"), WL, 1.0, axis=(-0.5, -0.2, -0.84)),
+              SpectralLight("POINT", spd("FL2"), WL, 40.0, position=(1.5, 0.5, 2.0)),
+              SpectralLight("SPOT", spd("A"), WL, 60.0, position=(-1.0, 1.0, 2.5),
+                            axis=(0.35, -0.35, -0.87), spot_size=np.radians(60.0),
+                            spot_blend=0.2),
+              SpectralLight("AREA", spd("FL11"), WL, 30.0, position=(0.2, -1.5, 1.5),
+                            axis=(-0.1, 0.7, -0.7))]
+    for name in ("io_iso", "io"):
+        got, reference = lights_pair(lobe_models[name], lights, precontract=precontract)
+        _check(got, reference, "D65", f"{name} {len(lights)} lights")
+
+
+def test_lobe_with_truncated_packs_and_filtered_factors(lobe_models):
+    model = lobe_models["io"]
+    got, reference = protocol_pair(model.truncated(1), 30.0, "FL2")
+    _check(got, reference, "FL2", "one pack")
+    image = render_sphere(model, 30.0, "FL2", SIZE, factors="unorm16_filtered")
+    drawn = drawn_model(model, "unorm16_filtered")
+    assert drawn.lobe is model.lobe
+    reference, mask = sphere_xyz(drawn, 30.0, "FL2", SIZE)
+    _check(image[mask][:, :3].astype(np.float64), reference[mask], "FL2", "unorm16 filtered")
