@@ -140,7 +140,8 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
     image = material.spectral.result.image
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
-    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit)
+    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit,
+                               prefilter.key_light_lobe_rgb_weights(model, light, to_rgb))
     # Built under a scratch name and checked before anything of the material changes.
     scratch_name = eevee_nodes.group_name(material) + " (building)"
     group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv,

@@ -56,6 +56,18 @@ def key_light_rgb_weights(model: FactoredBRDF, light: SpectralLight,
     return xyz @ np.asarray(to_rgb, dtype=np.float64).T
 
 
+def key_light_lobe_rgb_weights(model: FactoredBRDF, light: SpectralLight,
+                               to_rgb: np.ndarray) -> np.ndarray | None:
+    """(2, 3): RGB reflected per unit irradiance by each of the analytic lobe's two terms
+    (``core.brdf.lobe``), as :func:`key_light_rgb_weights` for the packs; None without
+    a lobe."""
+    if model.lobe is None:
+        return None
+    xyz = np.asarray(model.lobe.spectral, dtype=np.float64).T @ light.weights(
+        model.wavelengths, model.basis)
+    return xyz @ np.asarray(to_rgb, dtype=np.float64).T
+
+
 def light_rgb(light: SpectralLight, to_rgb: np.ndarray) -> np.ndarray:
     """The scene-linear RGB of a light's SPD, normalised as the protocol (Y = 1): the colour
     an RGB renderer must give the light so that a white surface matches the spectral path."""

@@ -32,12 +32,12 @@ WL = spectra.WAVELENGTHS_REFERENCE
 MEAN_BOUND, P95_BOUND = 0.1, 0.3
 
 
-def _model(parameterization, resolution):
+def _model(parameterization, resolution, lobe=None, nu=32.0, nv=32.0):
     brdf = models.make_model("ashikhmin_shirley", diffuse=(WL, spectra.colorchecker(12)),
-                             nu=32, nv=32)
+                             nu=nu, nv=nv)
     return storage.as_stored(factor.factor_brdf(
         brdf, parameterization=parameterization, isotropic=parameterization.endswith("_iso"),
-        resolution=resolution, packs=2, spectral_basis=8))
+        resolution=resolution, packs=2, spectral_basis=8, lobe=lobe))
 
 
 @pytest.fixture(scope="module")
@@ -213,15 +213,23 @@ def test_operators_report_the_measured_error(clean_scene):
     assert eevee.applied(material) is None
 
 
-@pytest.mark.parametrize("parameterization, resolution, incidence, illuminant", [
-    ("io_iso", (16, 32, 16), 60.0, "FL2"),
-    ("io_iso", (16, 32, 16), 80.0, "FL11"),    # the terminator: the horizon edge rule
-    ("hd", (12, 12, 12, 12), 0.0, "D65"),
-    ("ea", (12, 12, 24, 24), 30.0, "A"),
+AS_LOBE = "ashikhmin_shirley"
+
+
+@pytest.mark.parametrize("parameterization, resolution, incidence, illuminant, lobe", [
+    ("io_iso", (16, 32, 16), 60.0, "FL2", None),
+    ("io_iso", (16, 32, 16), 80.0, "FL11", None),    # the terminator: the horizon edge rule
+    ("hd", (12, 12, 12, 12), 0.0, "D65", None),
+    ("ea", (12, 12, 24, 24), 30.0, "A", None),
+    # The analytic lobe's node frame: isotropic at a grazing light, anisotropic head-on.
+    ("io_iso", (16, 32, 16), 75.0, "FL11", AS_LOBE),
+    ("io", (12, 12, 12, 12), 20.0, "D65", AS_LOBE),
 ])
 def test_eevee_sphere_matches_the_python_evaluation(clean_scene, parameterization, resolution,
-                                                    incidence, illuminant):
-    model = _model(parameterization, resolution)
+                                                    incidence, illuminant, lobe):
+    model = _model(parameterization, resolution, lobe,
+                   nv=32.0 if parameterization.endswith("_iso") else 96.0)
+    assert (model.lobe is not None) == (lobe is not None)
     xyz, facts = eevee.render_sphere_eevee(model, incidence, illuminant, 64)
     # Blender 4.x cannot change its working space (Linear Rec.709): rendered in that.
     space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
