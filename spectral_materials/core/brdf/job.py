@@ -9,7 +9,7 @@ the BRDF itself, never against the factorisation.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -20,7 +20,8 @@ from ..raster_plots import plot_error_against_packs
 from . import metrics
 from .factor import factor_brdf_series
 from .factored import FactoredBRDF
-from .lobe import LOBE_FAMILIES, SpecularLobe, fit_lobe
+from .lobe import LOBE_FAMILIES, SpecularLobe, fit_lobe, residual_anisotropy
+from .params import get_parameterization
 
 #: Lobe settings of :class:`FactorOptions`: none, chosen by the fit, or a family forced.
 LOBE_SETTINGS = ("off", "auto", *LOBE_FAMILIES)
@@ -36,6 +37,10 @@ LOBE_SURE_GAIN = 20.0
 #: (seed), so that the choice never sees the pairs it is measured at.
 LOBE_CHECK_PAIRS = 4000
 LOBE_CHECK_SEED = 424242
+#: With a lobe, an anisotropic material's packs take the isotropic layout (io → io_iso,
+#: the same θ cells) when the rest turns about the normal by at most this
+#: (``lobe.residual_anisotropy``; Ashikhmin–Shirley with its own lobe: 0.002–0.003).
+ISOTROPIC_RESIDUAL = 0.01
 
 
 @dataclass
@@ -80,13 +85,16 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     error = metrics.ProtocolError(brdf)
     lobe, lobe_report = choose_lobe(brdf, basis, options, scaled(callback, 0.05, 0.1))
     counts = None if options.target_de94 is not None else list(range(1, options.packs + 1))
+    lobe_options = options if lobe is None else residual_layout(brdf, lobe, basis, options,
+                                                                lobe_report)
 
     def fit(with_lobe, low, high):
+        chosen = lobe_options if with_lobe is not None else options
         return factor_brdf_series(
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
-            parameterization=options.parameterization, isotropic=options.isotropic,
-            resolution=options.resolution, spectral_basis=basis, lobe=with_lobe,
+            parameterization=chosen.parameterization, isotropic=chosen.isotropic,
+            resolution=chosen.resolution, spectral_basis=basis, lobe=with_lobe,
             callback=scaled(callback, low, high))
 
     undecided = lobe is not None and options.lobe == "auto" \
@@ -169,3 +177,21 @@ def _keep_the_better(brdf, with_lobe: list[FactoredBRDF], without: list[Factored
     figures = {**figures, "lobe_kept": kept, "lobe_check_de94": means[0],
                "no_lobe_check_de94": means[1], "lobe_choice_seconds": seconds}
     return (with_lobe if kept else without), figures
+
+
+def residual_layout(brdf, lobe: SpecularLobe, basis: LinearModelBasis | None,
+                    options: FactorOptions, figures: dict) -> FactorOptions:
+    """The options the packs beside ``lobe`` are fitted with: ``options``, or for an
+    anisotropic input/output layout whose rest is isotropic (:data:`ISOTROPIC_RESIDUAL`)
+    the isotropic one with the same θ cells. Writes what it measured into ``figures``."""
+    if options.isotropic or options.parameterization != "io":
+        return options
+    wavelengths = spectra.WAVELENGTHS_REFERENCE if basis is None else basis.wavelengths
+    anisotropy = residual_anisotropy(brdf, lobe, wavelengths,
+                                     None if basis is None else basis.vectors)
+    figures["residual_anisotropy"] = anisotropy
+    if anisotropy > ISOTROPIC_RESIDUAL:
+        return options
+    theta_cells = (options.resolution or get_parameterization("io").default_resolution)[0]
+    return replace(options, parameterization="io_iso", isotropic=True,
+                   resolution=get_parameterization("io", True).theta_resolution(theta_cells))

@@ -257,6 +257,33 @@ def fit_lobe(brdf, wavelengths: np.ndarray, basis: LinearModelBasis | None = Non
                    evaluations, time.perf_counter() - start)
 
 
+def residual_anisotropy(brdf, lobe: SpecularLobe, wavelengths: np.ndarray,
+                        basis: np.ndarray | None = None, *, pairs: int = 4000,
+                        seed: int = FIT_SEED + 1) -> float:
+    """How much ``brdf − lobe`` changes when both directions turn about the normal: the
+    RMS of that change over the RMS of ``f·cosθi`` (0 for an isotropic rest).
+
+    An anisotropic material whose anisotropy the lobe carries (Ashikhmin–Shirley 8/64:
+    0.002) leaves an isotropic rest, which the isotropic layout factors at a fraction of
+    the cost; a lobe of another shape leaves anisotropy behind (Ward 0.1/0.3: 0.09, GGX
+    0.1/0.4: 0.4). Turns are seeded, between 0.3 and 6 rad.
+    """
+    rng = np.random.default_rng(seed)
+    wi, wo = fit_pairs(pairs, seed)
+    angle = rng.uniform(0.3, 6.0, pairs)
+    c, s = np.cos(angle), np.sin(angle)
+
+    def turned(v):
+        return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]], -1)
+
+    wl = np.asarray(wavelengths, dtype=np.float64)
+    residual = LobeResidual(brdf, lobe, wl, basis)
+    cos_i = wi[:, 2:3]
+    change = (residual(wi, wo, wl) - residual(turned(wi), turned(wo), wl)) * cos_i
+    scale = np.sqrt(np.mean((np.asarray(brdf(wi, wo, wl), np.float64) * cos_i) ** 2))
+    return float(np.sqrt(np.mean(change ** 2)) / max(scale, np.finfo(float).tiny))
+
+
 class LobeResidual:
     """``brdf − lobe`` as a BRDF callable: what the factor packs factor beside a lobe.
 
