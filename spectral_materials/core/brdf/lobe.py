@@ -198,7 +198,8 @@ def fit_lobe(brdf, wavelengths: np.ndarray, basis: LinearModelBasis | None = Non
     that bright grazing peaks do not drown the rest. For exponents (nu, nv) the lobe's
     two spectra and a smooth polynomial in cosθi, cosθo (the diffuse layer's stand-in,
     not kept) solve a linear least-squares problem; the exponents are searched on a
-    log grid, then refined by Nelder–Mead. Isotropic BRDFs search nu = nv.
+    log grid (on a quarter of the samples), then refined by Nelder–Mead. Isotropic
+    BRDFs search nu = nv.
 
     ``callback(fraction, message) -> stop?`` reports progress; a true return raises
     ``Cancelled``. Raises ValueError for an unknown family or a BRDF returning
@@ -219,26 +220,30 @@ def fit_lobe(brdf, wavelengths: np.ndarray, basis: LinearModelBasis | None = Non
     smooth = np.stack(_smooth_columns(wi, wo), axis=1) * weight[:, None]
     evaluations = 0
 
-    def solve(nu: float, nv: float) -> tuple[float, np.ndarray]:
+    def solve(nu: float, nv: float, step: int = 1) -> tuple[float, np.ndarray]:
+        """Loss and lobe spectra at (nu, nv), on every ``step``-th sample."""
         nonlocal evaluations
         evaluations += 1
-        terms = lobe_terms(wi, wo, nu, nv) * (wi[:, 2] * weight)[:, None]
-        design = np.concatenate([terms, smooth], axis=1)
-        coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
-        residual = target - design @ coefficients
+        rows = slice(None, None, step)
+        terms = lobe_terms(wi[rows], wo[rows], nu, nv) * (wi[rows, 2] * weight[rows])[:, None]
+        design = np.concatenate([terms, smooth[rows]], axis=1)
+        coefficients, *_ = np.linalg.lstsq(design, target[rows], rcond=None)
+        residual = target[rows] - design @ coefficients
         return float(np.einsum("ij,ij->", residual, residual)), coefficients[:2]
 
     def exponents(log_exponents: np.ndarray) -> tuple[float, float]:
         nu, nv = np.exp(np.clip(log_exponents, *np.log(EXPONENT_RANGE)))[[0, -1]]
         return float(nu), float(nv)
 
+    # A coarse log grid on a quarter of the samples finds the basin; Nelder–Mead on all
+    # of them refines it.
     dims = 1 if isotropic else 2
     grid = np.linspace(np.log(1.0), np.log(EXPONENT_RANGE[1]), 14)
     candidates = (grid[:, None] if dims == 1 else
                   np.stack(np.meshgrid(grid, grid, indexing="ij"), -1).reshape(-1, 2))
     losses = []
     for i, point in enumerate(candidates):
-        losses.append(solve(*exponents(point))[0])
+        losses.append(solve(*exponents(point), step=4)[0])
         report(callback, 0.6 * (i + 1) / len(candidates), "fitting the specular lobe")
     best = candidates[int(np.argmin(losses))]
     refined = minimize(lambda p: solve(*exponents(p))[0], best, method="Nelder-Mead",
