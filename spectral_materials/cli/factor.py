@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..core.brdf.lobe import LOBE_FAMILIES
 from ..core.brdf.params import PARAMETERIZATIONS
 from .arguments import basis_arg, int_in, positive_float
 from .common import Progress, UsageError, check_output_path
@@ -100,7 +101,8 @@ def _fit(args, brdf, table_file, wavelengths, progress: Progress):
         f"method {args.method}")
     progress.check()
     table = prepare_table(brdf, parameterization=name, isotropic=iso, resolution=resolution,
-                          wavelengths=wavelengths, spectral_basis=args.basis, callback=progress)
+                          wavelengths=wavelengths, spectral_basis=args.basis,
+                          lobe=None if args.lobe == "off" else args.lobe, callback=progress)
     counts = sorted(set(args.packs)) if args.packs else None
     series = factor_brdf_series(
         brdf, pack_counts=counts if counts and len(counts) > 1 else None, table=table,
@@ -179,6 +181,10 @@ def _add_factoring_options(p: argparse.ArgumentParser) -> None:
                    help="stop at the first pack count with mean dE94 (D65) <= X")
     g.add_argument("--pack-size", type=int_in(1, 64), default=4, metavar="N",
                    help="terms per pack (default 4 = one RGBA texel)")
+    g.add_argument("--lobe", choices=("off", *LOBE_FAMILIES), default="off",
+                   help="fit an analytic specular lobe and factor the rest beside it "
+                        "(core/brdf/lobe.py); the add-on's Automatic keeps it only where it "
+                        "measures better")
     g.add_argument("--method", choices=("joint", "greedy", "svd", "nd"), default="joint",
                    help="default joint")
     g.add_argument("--seed", type=int, default=0)

@@ -78,6 +78,23 @@ def test_factor_lambert_end_to_end(tmp_path):
                        rtol=0.05, atol=2e-3)
 
 
+def test_factor_with_a_lobe(tmp_path):
+    """``--lobe``: the saved model carries the lobe, and the table's floor row counts it."""
+    out, report = tmp_path / "gloss.npz", tmp_path / "report.json"
+    result = run_cli("factor", "ashikhmin_shirley", "--param", "nu=32", "--param", "nv=32",
+                     "--resolution", 12, 24, 12, "--packs", 1, "--basis", 6,
+                     "--lobe", "ashikhmin_shirley", "--pairs", 3000, "--out", out,
+                     "--json", report)
+    assert result.returncode == 0, result.stderr
+    model = FactoredBRDF.load(out)
+    assert model.lobe is not None and abs(model.lobe.nu - 32.0) < 0.5
+    rows = json.loads(report.read_text())["rows"]
+    _check_rows(rows)
+    table = rows[-1]
+    # Without the lobe the residual table alone would miss the highlight by ΔE94 ≫ 10.
+    assert table["de94"]["D65"]["mean"] < 1.0
+
+
 def test_factor_tabulated_file(tmp_path):
     path = tmp_path / "on.npz"
     brdf = models.OrenNayar(albedo=spectra.colorchecker_spectrum(12), sigma=0.52)

@@ -136,7 +136,8 @@ class Table:
 
     def xyz(self, wi: np.ndarray, wo: np.ndarray, illuminant: str | np.ndarray = "D65",
             chunk: int = 8192) -> np.ndarray:
-        """Linear XYZ (N, 3) of the table itself, looked up as the factors are (the error floor)."""
+        """Linear XYZ (N, 3) of the table itself, looked up as the factors are (the error floor),
+        with its lobe's part where it carries one."""
         weights = colour_pipeline.xyz_weights(
             illuminant, self.wavelengths, None if self.basis is None else self.basis.vectors)
         param = self.grid.parameterization
@@ -146,6 +147,9 @@ class Table:
             values = interpolate(self.values, self.grid, param.forward(wi[sl], wo[sl]))
             if not self.cosine_weighted:
                 values = values * np.clip(wi[sl, 2:3], 0.0, None)
+            if self.lobe is not None:
+                values = values + (self.lobe.angular(wi[sl], wo[sl]) * np.clip(
+                    wi[sl, 2:3], 0.0, None)) @ np.asarray(self.lobe.spectral, np.float64).T
             lit = (wi[sl, 2] > 0) & (wo[sl, 2] > 0)
             out[sl] = (values * lit[:, None]) @ weights
         return out
