@@ -39,19 +39,27 @@ def _objects_using(scene, material) -> list:
             if any(s.material == material for s in getattr(o, "material_slots", []))]
 
 
-def key_light(scene, material):
-    """The light object that brings the most irradiance to the material's objects."""
+def _irradiances(scene, material) -> list[tuple]:
+    """(light object, its SpectralLight, irradiance at the centre of the material's objects)
+    for every light the spectral path draws."""
     objects = _objects_using(scene, material)
     if not objects:
         raise EEVEEError(f"Material '{material.name}': no object in scene '{scene.name}' uses it")
     centre = np.mean([np.array(o.matrix_world)[:3, 3] for o in objects], axis=0)
     lights, _ = scene_lights.scene_lights(scene)
-    best, best_e = None, 0.0
+    out = []
     for obj in lights:
         if obj.data.type not in scene_lights.DRAWN_TYPES:
             continue
         light = scene_lights.spectral_light(obj)
-        irradiance = float(light.incidence(centre[None])[1][0])
+        out.append((obj, light, float(light.incidence(centre[None])[1][0])))
+    return out
+
+
+def key_light(scene, material):
+    """The light object that brings the most irradiance to the material's objects."""
+    best, best_e = None, 0.0
+    for obj, _, irradiance in _irradiances(scene, material):
         if irradiance > best_e:
             best, best_e = obj, irradiance
     if best is None:
@@ -135,7 +143,11 @@ def apply_eevee(material, scene, *, light_object=None, measure: bool = False) ->
     white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
     to_rgb = prefilter.scene_linear_matrix(white, working_space())
     weights = prefilter.key_light_rgb_weights(model, light, to_rgb)
-    fit = prefilter.fit_principled(model, light, to_rgb)
+    # The Principled BSDF is what the other lights see: fitted under their spectrum.
+    fill = prefilter.fill_light([(other, irradiance) for obj, other, irradiance
+                                 in _irradiances(scene, material) if obj != light_object],
+                                sources.WAVELENGTHS)
+    fit = prefilter.fit_principled(model, fill or light, to_rgb)
     objects = _objects_using(scene, material)
     use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
     image = material.spectral.result.image

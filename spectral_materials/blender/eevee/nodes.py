@@ -19,9 +19,9 @@ light, stage by stage in labelled frames:
    added to the packs' radiance outside the horizon rule's scale.
 
 Outputs: ``Key light`` (that radiance, for an Emission shader) and ``Base Color``,
-``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the key light's
-spectrum, ``core.prefilter.fit_principled``, for a Principled BSDF that the other
-lights and the world light). EEVEE gives nodes no per-light data: the key
+``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the other lights'
+irradiance-weighted spectrum, ``core.prefilter.fit_principled``, for a Principled BSDF
+that the other lights and the world light). EEVEE gives nodes no per-light data: the key
 light is the only one evaluated spectrally and unshadowed (an emission casts no
 shadow); the apply step keeps it from also lighting the Principled BSDF.
 """
@@ -373,7 +373,7 @@ def _pack_rgb(g: Graph, image, lookups: list, pack: int, groups: int, weights: n
 
 
 def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
-    """The Principled inputs fitted under the key light (for the other lights)."""
+    """The Principled inputs fitted under the other lights' spectrum (for them)."""
     colour = g.node("ShaderNodeRGB", base + 11, "diffuse colour (fit)")
     colour.outputs[0].default_value = (*map(float, fit["base_color"]), 1.0)
     group.links.new(colour.outputs[0], output.inputs["Base Color"])
@@ -432,7 +432,7 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
         radiance = g.vmath("ADD", radiance, g.vmath("SCALE", lobe, scale=lit_scale,
                                                     column=base + 11),
                            column=base + 11, label="key light with lobe")
-    g.begin("Other lights: Lambert + GGX fitted under the key light's spectrum")
+    g.begin("Other lights: Lambert + GGX fitted under their spectrum")
     output = g.node("NodeGroupOutput", base + 12)
     group.links.new(radiance, output.inputs["Key light"])
     _fitted_outputs(g, group, output, key.fit, base)

@@ -107,6 +107,28 @@ def _ggx_basis(wi: np.ndarray, wo: np.ndarray, alpha: float) -> np.ndarray:
     return np.pi * d * g1(wi[:, 2]) * g1(wo[:, 2]) / (4.0 * wo[:, 2])
 
 
+def fill_light(lights: list[tuple[SpectralLight, float]],
+               wavelengths: np.ndarray = spectra.WAVELENGTHS_REFERENCE) -> SpectralLight | None:
+    """A sun whose SPD mixes ``lights`` (light, irradiance at the material) by irradiance,
+    each SPD scaled to unit luminance; None when none brings light.
+
+    The EEVEE path shades every light but its key light in RGB through a Principled BSDF
+    (``fit_principled``); fitted under this spectrum, the fit's von Kries colour is exact
+    for a single such light and weighted towards the brightest of several.
+    """
+    wl = spectra.check_wavelengths(wavelengths)
+    y_bar = spectra.cmfs(wl)[:, 1] * spectra.sample_weights(wl)
+    mixed = np.zeros(wl.size)
+    for light, irradiance in lights:
+        spd = light.spd_on(wl)
+        luminance = float(spd @ y_bar)
+        if irradiance > 0 and luminance > 0:
+            mixed += irradiance * spd / luminance
+    if not mixed.any():
+        return None
+    return SpectralLight("SUN", mixed / float(mixed @ y_bar), wl, name="fill")
+
+
 def fit_principled(model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray,
                    count: int = 20000) -> dict:
     """A Lambert + GGX fit of the model under ``light`` for an RGB Principled BSDF.
