@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 from spectral_materials.blender import compat
-from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.blender.eevee import apply as eevee, render as eevee_render
 from spectral_materials.blender.lights import scene_lights
 from spectral_materials.blender.viewport import draw
 from spectral_materials.core.colour import pipeline as colour_pipeline
@@ -38,24 +38,18 @@ def render_eevee(scene, width: int, height: int) -> tuple[np.ndarray, float]:
         seconds = time.perf_counter() - start
         channels, _ = read_exr(Path(folder) / "frame.exr")
     rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
-    xyz = eevee.scene_linear_to_xyz(rgb, scene.spectral.adaptation_white)
+    xyz = eevee_render.scene_linear_to_xyz(rgb, scene.spectral.adaptation_white)
     return xyz / scene_lights.display_settings(scene).exposure, seconds
 
 
-def eevee_section(scene, comparison, images: Path) -> dict:
-    """Apply the EEVEE path to every drawn material, render, compare; write the figure."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    if bpy.data.colorspace.working_space != "Linear Rec.2020":
-        # Saturated reflectances under FL2 fall outside Rec.709; EEVEE clamps them.
-        bpy.ops.wm.set_working_color_space(working_space="Linear Rec.2020")
+def _measure(scene, comparison, lights: int) -> tuple[dict, np.ndarray, dict]:
+    """Apply the EEVEE path with ``lights`` spectral lights to every drawn material,
+    render, compare: (rows per material, XYZ, ΔE94 maps and timings)."""
     applied = {}
     for name in comparison.materials:
-        counts = eevee.apply_eevee(bpy.data.materials[name], scene, measure=True)
-        applied[name] = {**counts, "key_light": eevee.applied(bpy.data.materials[name])["light"]}
+        material = bpy.data.materials[name]
+        counts = eevee.apply_eevee(material, scene, measure=True, lights=lights)
+        applied[name] = {**counts, "key_light": eevee.applied(material)["light"]}
     height, width = comparison.material_map.shape
     render_eevee(scene, width, height)                    # compiles the materials
     xyz, seconds = render_eevee(scene, width, height)
@@ -72,12 +66,39 @@ def eevee_section(scene, comparison, images: Path) -> dict:
         mask = comparison.material_map == index
         rows[name] = {
             "key_light": applied[name]["key_light"], "nodes": applied[name]["nodes"],
+            "spectral_lights": applied[name]["lights"],
             "mean": float(np.nanmean(de_reference[mask])),
             "p95": float(np.nanpercentile(de_reference[mask], 95)),
             "max": float(np.nanmax(de_reference[mask])),
             "handler_mean": float(np.nanmean(de_handler[mask])),
             "handler_p95": float(np.nanpercentile(de_handler[mask], 95)),
             "key_light_de94": applied[name]["de94"]}
+    return rows, xyz, {"de_reference": de_reference, "de_handler": de_handler,
+                       "render_seconds": seconds}
+
+
+def eevee_section(scene, comparison, images: Path) -> dict:
+    """Apply the EEVEE path to every drawn material, with the key light alone spectral
+    (the default) and then with every light of the scene spectral (up to the node
+    group's limit); render, compare; write the figure of the second."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if bpy.data.colorspace.working_space != "Linear Rec.2020":
+        # Saturated reflectances under FL2 fall outside Rec.709; EEVEE clamps them.
+        bpy.ops.wm.set_working_color_space(working_space="Linear Rec.2020")
+    drawn = [o for o in scene_lights.scene_lights(scene)[0]
+             if o.data.type in scene_lights.DRAWN_TYPES]
+    every = max(1, min(len(drawn), eevee.MAX_SPECTRAL_LIGHTS))
+    settings = {}
+    for lights in sorted({1, every}):
+        rows, xyz, maps = _measure(scene, comparison, lights)
+        settings[lights] = {"materials": rows, "render_seconds": maps["render_seconds"]}
+    de_reference, de_handler = maps["de_reference"], maps["de_handler"]
+    height, width = comparison.material_map.shape
+    covered = comparison.material_map >= 0
     display = scene_lights.display_settings(scene)
     fig, axes = plt.subplots(2, 3, figsize=(15, 6.6))
     for ax, image, title in ((axes[0, 0], comparison.reference, "5 nm reference"),
@@ -102,8 +123,8 @@ def eevee_section(scene, comparison, images: Path) -> dict:
         ax.axis("off")
     fig.savefig(images / "eevee_scene.png", dpi=80, bbox_inches="tight")
     plt.close(fig)
-    return {"materials": rows, "render_seconds": seconds, "size": [width, height],
-            "working_space": bpy.data.colorspace.working_space,
+    return {"settings": {str(k): v for k, v in settings.items()}, "every": every,
+            "size": [width, height], "working_space": bpy.data.colorspace.working_space,
             "handler_ms": _handler_ms(scene, width, height)}
 
 
@@ -118,29 +139,38 @@ def _handler_ms(scene, width: int, height: int, repeats: int = 3) -> float:
 
 
 def report_lines(section: dict) -> list[str]:
+    every = section["every"]
     lines = ["", "## EEVEE node groups", "",
-             "Every material above through its EEVEE node group (`spectral.eevee_apply`): the "
-             "key light (the light bringing the most irradiance to the material's objects) is "
-             "reconstructed from the factor packs in nodes and shown through an Emission; the "
-             "other light and the world reach a Principled BSDF fitted to the factors (Lambert "
-             "+ GGX under the key light's spectrum). "
+             "Every material above through its EEVEE node group (`spectral.eevee_apply`), "
+             "rendered twice in this run: with the key light (the light bringing the most "
+             "irradiance to the material's objects) reconstructed spectrally from the factor "
+             "packs in nodes, the add-on's default, and with every light of the scene so "
+             f"reconstructed (*Spectral lights* {every}). Spectral lights are shown through an "
+             "Emission and cast no shadow on the material; the other lights and the world "
+             "reach a Principled BSDF fitted to the factors (Lambert + GGX) under the other "
+             "lights' spectrum. "
              f"Rendered by EEVEE at {section['size'][0]}×{section['size'][1]} (1 sample, pixel "
              f"centres), working space {section['working_space']}, black world, at the same "
-             "pixels as the reference and the draw handler.", "",
+             "pixels as the reference and the draw handler. The figure shows the second "
+             "render.", "",
              "![reference, draw handler, EEVEE and ΔE94 maps](images/eevee_scene.png)", "",
-             "| material | key light | nodes | EEVEE vs 5 nm mean | p95 | max | EEVEE vs "
+             "| material | spectral lights | nodes | EEVEE vs 5 nm mean | p95 | max | EEVEE vs "
              "handler mean | p95 | key-light term alone vs 5 nm (mean / p95) |",
              "|---|---|---:|---:|---:|---:|---:|---:|---|"]
-    for name, row in section["materials"].items():
-        key = row["key_light_de94"]
-        lines.append(f"| {name} | {row['key_light']} | {row['nodes']} | {row['mean']:.3f} | "
-                     f"{row['p95']:.3f} | {row['max']:.3f} | {row['handler_mean']:.3f} | "
-                     f"{row['handler_p95']:.3f} | {key['mean']:.3f} / {key['p95']:.3f} |")
-    lines += ["", f"EEVEE render {section['render_seconds']:.2f} s (after a first render that "
-              f"compiles the materials); the draw handler's offscreen frame of the same view "
-              f"{section['handler_ms']:.0f} ms (with read-back). The difference between EEVEE "
-              "and the handler is the non-key light, which EEVEE shades in RGB through the "
-              "fitted Principled BSDF (see docs/eevee.md).", ""]
+    for setting in section["settings"].values():
+        for name, row in setting["materials"].items():
+            key = row["key_light_de94"]
+            lights = ", ".join(row["spectral_lights"])
+            lines.append(f"| {name} | {lights} | {row['nodes']} | {row['mean']:.3f} | "
+                         f"{row['p95']:.3f} | {row['max']:.3f} | {row['handler_mean']:.3f} | "
+                         f"{row['handler_p95']:.3f} | {key['mean']:.3f} / {key['p95']:.3f} |")
+    times = ", ".join(f"{s['render_seconds']:.2f} s with {k} spectral light(s)"
+                      for k, s in section["settings"].items())
+    lines += ["", f"EEVEE render {times} (each after a first render that compiles the "
+              f"materials); the draw handler's offscreen frame of the same view "
+              f"{section['handler_ms']:.0f} ms (with read-back). With the key light alone, "
+              "the difference between EEVEE and the handler is the other light, which EEVEE "
+              "shades in RGB through the fitted Principled BSDF (see docs/eevee.md).", ""]
     return lines
 
 
@@ -164,7 +194,7 @@ def sphere_table(materials: list[str], size: int = 128) -> dict:
         model = storage.load_factored(material)
         brdf = sources.material_inputs(material).brdf()
         for illuminant, incidence in SPHERE_CASES:
-            xyz, facts = eevee.render_sphere_eevee(model, incidence, illuminant, size)
+            xyz, facts = eevee_render.render_sphere_eevee(model, incidence, illuminant, size)
             handler = render_sphere(model, incidence, illuminant, size)[..., :3]
             view = metrics.sphere_directions(incidence, size)
             top_down = np.zeros((size, size, 3))

@@ -6,7 +6,7 @@ from __future__ import annotations
 import bpy
 
 from benchmarks.scenes import factory_scene
-from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.blender.eevee import render as eevee_render
 
 from .sizes import DemoSizes
 
@@ -60,7 +60,7 @@ def build_scene(sizes: DemoSizes) -> None:
     for obj in (sun_obj, shop_obj):
         bpy.context.scene.collection.objects.link(obj)
     # Only the two lights: the reference, the draw handler and EEVEE then see the same light.
-    bpy.context.scene.world = eevee.black_world("Black")
+    bpy.context.scene.world = eevee_render.black_world("Black")
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     camera.location = (0.0, -11.0, 3.5)
     camera.rotation_euler = (1.33, 0.0, 0.0)

@@ -148,19 +148,19 @@ def forward_names(module: str, moved: dict[str, str]):
     return __getattr__
 
 
-def forward_to(package: str, module: str):
+def forward_to(package: str, *modules: str):
     """A module ``__getattr__`` for ``package`` that serves the names of the old module of
-    the same name, now ``package.module``, with a DeprecationWarning."""
+    the same name, now in ``package.<module>`` (the first of ``modules`` that has the
+    name), with a DeprecationWarning."""
 
     def __getattr__(name: str):
         if name.startswith("__"):
             raise AttributeError(name)
-        target = importlib.import_module(f"{package}.{module}")
-        try:
-            value = getattr(target, name)
-        except AttributeError:
-            raise AttributeError(f"module {package!r} has no attribute {name!r}") from None
-        _warn(f"{package}.{name}", f"{package}.{module}.{name}", stacklevel=3)
-        return value
+        for module in modules:
+            target = importlib.import_module(f"{package}.{module}")
+            if hasattr(target, name):
+                _warn(f"{package}.{name}", f"{package}.{module}.{name}", stacklevel=3)
+                return getattr(target, name)
+        raise AttributeError(f"module {package!r} has no attribute {name!r}")
 
     return __getattr__

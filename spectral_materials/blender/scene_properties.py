@@ -19,6 +19,7 @@ from bpy.props import (
     StringProperty,
 )
 
+from .eevee.nodes import MAX_SPECTRAL_LIGHTS
 from .prt.properties import SPECTRAL_PG_environment
 from .ui.enums import ILLUMINANT_ITEMS, OBSERVER_ITEMS, TONE_MAP_ITEMS
 
@@ -62,6 +63,11 @@ class SPECTRAL_PG_scene(bpy.types.PropertyGroup):
                                    soft_max=1.0, precision=3,
                                    description="Largest ΔE94 the spectral basis may cost any "
                                                "light × material pair, against 5 nm")
+    eevee_spectral_lights: IntProperty(
+        name="Spectral lights", default=1, min=1, max=MAX_SPECTRAL_LIGHTS,
+        description="Lights the EEVEE node group evaluates spectrally through the factor "
+                    "packs (the brightest at the material first); they cast no shadow on "
+                    "the material, the others keep EEVEE's shadows and are shaded in RGB")
     basis_max_size: IntProperty(name="Max basis size", default=16, soft_min=1, soft_max=32,
                                 description="Upper bound on basis coefficients")
     basis_size: IntProperty(name="Basis size", min=0,

@@ -33,7 +33,7 @@ def _render_eevee(args, model, progress: Progress) -> np.ndarray:
     import bpy
 
     from .. import blender as addon
-    from ..blender.eevee import apply as eevee
+    from ..blender.eevee import render as eevee
 
     if not hasattr(bpy.types.Material, "spectral"):
         addon.register()      # the render stores the factors on a scratch material

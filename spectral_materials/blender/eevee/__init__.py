@@ -1,13 +1,14 @@
 """The EEVEE approximation: the node group that rebuilds a material's factor packs for its
-key light, applying and removing it (operators, and a box in the Stored Factors panel),
-and EEVEE renders.
+spectral lights, applying and removing it (operators, and a box in the Stored Factors
+panel), and EEVEE renders (:mod:`.render`).
 
 An applied node group follows its material's factors: :func:`register` has the factor-pack
 code rebuild it when factors are stored and remove it before they are cleared
 (``brdf.hooks``), and adds the EEVEE box to the Stored Factors panel.
 
 Until the next release, ``spectral_materials.blender.eevee.<name>`` also serves the names of
-the old ``blender/eevee.py`` (now :mod:`.apply`), with a DeprecationWarning."""
+the old ``blender/eevee.py`` (now :mod:`.apply` and :mod:`.render`), with a
+DeprecationWarning."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from ..._moved import forward_to
 from ..brdf import hooks, panels as brdf_panels
 from . import apply, operators, panels
 
-__getattr__ = forward_to(__name__, "apply")
+__getattr__ = forward_to(__name__, "apply", "render")
 
 #: Registered by ``blender.register()`` in this order, before :func:`register` runs.
 CLASSES = operators.CLASSES + panels.CLASSES

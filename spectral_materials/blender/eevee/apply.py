@@ -1,18 +1,19 @@
 """Applying the EEVEE node group to a material, removing it, and rendering with it.
 
-``apply_eevee(material, scene)`` adds, beside the user's nodes (which are never
+``apply_eevee(material, scene, lights=N)`` adds, beside the user's nodes (which are never
 changed), a frame holding the group node of ``eevee_nodes.build_group``, an Emission
-(the key light, reconstructed spectrally) and a Principled BSDF (a Lambert + GGX fit
-of the factors, for the other lights and the world), and links them to the material output. The
-output's previous link is remembered on the material, so ``remove_eevee`` restores
-the original tree exactly. The key light lights the object through the Emission
-only: light linking excludes the material's objects from it (restored on removal).
+(the N spectral lights — the key light and the next brightest — reconstructed
+spectrally) and a Principled BSDF (a Lambert + GGX fit of the factors, for the other
+lights and the world), and links them to the material output. The output's previous
+link is remembered on the material, so ``remove_eevee`` restores the original tree
+exactly. The spectral lights light the object through the Emission only: light linking
+excludes the material's objects from them (restored on removal), so they cast no
+shadow on it.
 """
 
 from __future__ import annotations
 
 import json
-import math
 
 import bpy
 import numpy as np
@@ -56,6 +57,23 @@ def _irradiances(scene, material) -> list[tuple]:
     return out
 
 
+MAX_SPECTRAL_LIGHTS = eevee_nodes.MAX_SPECTRAL_LIGHTS
+
+
+def spectral_lights(scene, material, count: int = 1, key=None) -> list:
+    """The light objects the node group evaluates spectrally: ``key`` (default: the
+    brightest at the material's objects), then the next brightest, ``count`` in all
+    (fewer if fewer lights reach the material)."""
+    if not 1 <= int(count) <= MAX_SPECTRAL_LIGHTS:
+        raise EEVEEError(f"Material '{material.name}': spectral lights must be 1 to "
+                         f"{MAX_SPECTRAL_LIGHTS}, got {count}")
+    key = key or key_light(scene, material)
+    others = sorted(((irradiance, obj.name, obj) for obj, _, irradiance
+                     in _irradiances(scene, material) if obj != key and irradiance > 0),
+                    key=lambda item: (-item[0], item[1]))
+    return [key] + [obj for _, _, obj in others[: int(count) - 1]]
+
+
 def key_light(scene, material):
     """The light object that brings the most irradiance to the material's objects."""
     best, best_e = None, 0.0
@@ -74,16 +92,19 @@ def _output_node(tree):
     return (active or outputs or [None])[0]
 
 
-def _check_uniform_block(material, model, group) -> None:
+def _check_uniform_block(material, model, group, lights: int = 1) -> None:
     """Remove the new ``group`` and raise if EEVEE could not link its node constants."""
     needed = eevee_nodes.uniform_bytes(group)
     if needed > eevee_nodes.UNIFORM_BLOCK_LIMIT:
         bpy.data.node_groups.remove(group)
         fits = max(1, int(model.packs * eevee_nodes.UNIFORM_BLOCK_LIMIT / needed))
         raise EEVEEError(
-            f"Material '{material.name}': {model.packs} packs need {needed} bytes of node "
-            f"constants, over EEVEE's {eevee_nodes.UNIFORM_BLOCK_LIMIT} (it would render "
-            f"magenta): factor it with at most {fits} packs"
+            f"Material '{material.name}': {model.packs} packs"
+            + (f" for {lights} spectral lights" if lights > 1 else "")
+            + f" need {needed} bytes of node constants, over EEVEE's "
+            f"{eevee_nodes.UNIFORM_BLOCK_LIMIT} (it would render magenta): factor it with at "
+            f"most {fits} packs"
+            + (" or fewer spectral lights" if lights > 1 else "")
             + (" or an isotropic (3-axis) parameterisation"
                if len(model.grid.shape) == 4 else ""))
 
@@ -106,7 +127,7 @@ def _add_frame(material, group) -> tuple:
     x, y = output.location.x, output.location.y - 400
     nodes = {}
     for kind, offset, label in (("ShaderNodeGroup", (-700, 0), "Spectral factors"),
-                                ("ShaderNodeEmission", (-450, 60), "Key light (spectral)"),
+                                ("ShaderNodeEmission", (-450, 60), "Spectral lights"),
                                 ("ShaderNodeBsdfPrincipled", (-450, -160),
                                  "Other lights (RGB fit)"),
                                 ("ShaderNodeAddShader", (-220, 0), "Spectral EEVEE")):
@@ -119,7 +140,8 @@ def _add_frame(material, group) -> tuple:
     nodes["ShaderNodeGroup"].node_tree = group
     nodes["ShaderNodeEmission"].inputs["Strength"].default_value = 1.0
     links = tree.links
-    links.new(nodes["ShaderNodeGroup"].outputs["Key light"], nodes["ShaderNodeEmission"].inputs[0])
+    links.new(nodes["ShaderNodeGroup"].outputs["Spectral lights"],
+              nodes["ShaderNodeEmission"].inputs[0])
     principled = nodes["ShaderNodeBsdfPrincipled"]
     for name in ("Base Color", "Roughness", "IOR"):
         links.new(nodes["ShaderNodeGroup"].outputs[name], principled.inputs[name])
@@ -129,51 +151,62 @@ def _add_frame(material, group) -> tuple:
     return output, original
 
 
-def apply_eevee(material, scene, *, light_object=None, measure: bool = False) -> dict:
+def apply_eevee(material, scene, *, light_object=None, lights: int = 1,
+                measure: bool = False) -> dict:
     """Add the EEVEE reconstruction to ``material``; returns node and sampler counts.
 
-    ``measure`` also computes the key-light term's ΔE94 against the 5 nm reference
-    (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
+    ``lights``: how many lights are evaluated spectrally (:func:`spectral_lights`, the
+    key light ``light_object`` or the brightest first); they cast no shadow on the
+    material, the others keep EEVEE's shadows. ``measure`` also computes the key-light
+    term's ΔE94 against the 5 nm reference (``core.prefilter.key_light_error``; a
+    fraction of a second), kept with the record.
     """
     if material.spectral.result.image is None:
         raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
     model = storage.load_factored(material)
-    light_object = light_object or key_light(scene, material)
+    chosen = spectral_lights(scene, material, lights, light_object)
+    light_object = chosen[0]
     light = scene_lights.spectral_light(light_object)
     white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
     to_rgb = prefilter.scene_linear_matrix(white, working_space())
-    weights = prefilter.key_light_rgb_weights(model, light, to_rgb)
     # The Principled BSDF is what the other lights see: fitted under their spectrum.
     fill = prefilter.fill_light([(other, irradiance) for obj, other, irradiance
-                                 in _irradiances(scene, material) if obj != light_object],
+                                 in _irradiances(scene, material) if obj not in chosen],
                                 sources.WAVELENGTHS)
     fit = prefilter.fit_principled(model, fill or light, to_rgb)
     objects = _objects_using(scene, material)
     use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
     image = material.spectral.result.image
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
-    key = eevee_nodes.KeyLight(light_object.name, light_object.data.type, weights, fit,
-                               prefilter.key_light_lobe_rgb_weights(model, light, to_rgb))
+    keys = []
+    for obj in chosen:
+        spectral = scene_lights.spectral_light(obj)
+        keys.append(eevee_nodes.KeyLight(
+            obj.name, obj.data.type, prefilter.key_light_rgb_weights(model, spectral, to_rgb),
+            fit, prefilter.key_light_lobe_rgb_weights(model, spectral, to_rgb)))
     # Built under a scratch name and checked before anything of the material changes.
     scratch_name = eevee_nodes.group_name(material) + " (building)"
-    group = eevee_nodes.build_group(material, model, image, key, use_uv_tangent=use_uv,
+    group = eevee_nodes.build_group(material, model, image, keys, use_uv_tangent=use_uv,
                                     name=scratch_name)
-    _check_uniform_block(material, model, group)
+    _check_uniform_block(material, model, group, len(chosen))
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group.name = eevee_nodes.group_name(material)
     output, original = _add_frame(material, group)
-    previous_receivers = _exclude_from_light(light_object, objects)
+    previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in chosen}
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
+    counts["lights"] = [obj.name for obj in chosen]
     counts["fit"] = {"base_color": [float(v) for v in fit["base_color"]],
                      "roughness": fit["roughness"], "specular": fit["specular"],
-                     "relative_rms": fit["relative_rms"]}
+                     "relative_rms": fit["relative_rms"],
+                     "under": "other lights" if fill is not None else "key light"}
     if measure:
         brdf = sources.material_inputs(material).brdf()
         counts["de94"] = prefilter.key_light_error(brdf, model, light, to_rgb)
     material[ORIGINAL_KEY] = json.dumps({
         "output": output.name, "link": original, "light": light_object.name,
-        "receivers": previous_receivers, "working_space": working_space(), **counts})
+        "receivers": previous_receivers,
+        "working_space": working_space(), **counts})
     material.update_tag()
     return counts
 
@@ -190,8 +223,10 @@ def refresh(material, scene) -> str:
     if record is None:
         return ""
     light = bpy.data.objects.get(record.get("light", ""))
+    count = max(1, min(len(record.get("lights", [])) or 1, MAX_SPECTRAL_LIGHTS))
     try:
-        apply_eevee(material, scene, light_object=light, measure="de94" in record)
+        apply_eevee(material, scene, light_object=light, lights=count,
+                    measure="de94" in record)
     except ValueError as exc:
         remove_eevee(material, scene)
         return f"EEVEE path of '{material.name}' removed: {exc}"
@@ -256,9 +291,10 @@ def remove_eevee(material, scene=None) -> bool:
             source = tree.nodes[link["node"]]
             socket = next(s for s in source.outputs if s.identifier == link["socket"])
             tree.links.new(socket, output.inputs["Surface"])
-        light = bpy.data.objects.get(info.get("light", ""))
-        if light is not None:
-            _include_again(light, material)
+        for name in _record_lights(info):
+            light = bpy.data.objects.get(name)
+            if light is not None:
+                _include_again(light, material)
         del material[ORIGINAL_KEY]
         removed = True
     group = bpy.data.node_groups.get(eevee_nodes.group_name(material))
@@ -266,6 +302,12 @@ def remove_eevee(material, scene=None) -> bool:
         bpy.data.node_groups.remove(group)
     material.update_tag()
     return removed
+
+
+def _record_lights(record: dict) -> list[str]:
+    """The spectral lights an applied record names (records before several lights name
+    only ``light``)."""
+    return list(record.get("lights") or [record.get("light", "")])
 
 
 def working_space() -> str:
@@ -283,7 +325,7 @@ def _include_again(light, material) -> None:
     still_needed = set()
     for other in bpy.data.materials:
         record = applied(other) if other != material else None
-        if record is not None and record.get("light") == light.name:
+        if record is not None and light.name in _record_lights(record):
             still_needed |= {o.name for o in bpy.data.objects
                              if any(s.material == other for s in o.material_slots)}
     for obj in list(collection.objects):
@@ -295,164 +337,3 @@ def _include_again(light, material) -> None:
         light.light_linking.receiver_collection = \
             bpy.data.collections.get(previous) if previous else None
         bpy.data.collections.remove(collection)
-
-
-def scene_linear_to_xyz(rgb: np.ndarray, adaptation_white: str = "D65",
-                        space: str | None = None) -> np.ndarray:
-    """Protocol XYZ from EEVEE's scene-linear radiance (the inverse of the group's colour
-    step, times π: a white Lambertian facing a unit sun renders 1/π in Blender)."""
-    white = colour_pipeline.white_xyz(adaptation_white, sources.WAVELENGTHS)
-    inverse = np.linalg.inv(prefilter.scene_linear_matrix(white, space or working_space()))
-    return math.pi * np.asarray(rgb, dtype=np.float64) @ inverse.T
-
-
-#: The protocol renders in Rec.2020: saturated reflectances under spiky lights have
-#: negative Rec.709 components, which EEVEE clamps (measured in docs/eevee.md).
-PROTOCOL_WORKING_SPACE = "Linear Rec.2020"
-#: Segments of the protocol's UV sphere (rings: half): its normals are within ~1e-4 rad
-#: of the analytic sphere's.
-SPHERE_SEGMENTS = 256
-
-
-def black_world(name: str):
-    world = bpy.data.worlds.new(name)
-    world.color = (0.0, 0.0, 0.0)
-    if world.node_tree is not None:
-        for node in world.node_tree.nodes:
-            if node.type == "BACKGROUND":
-                node.inputs["Strength"].default_value = 0.0
-    return world
-
-
-class _Scratch:
-    """Datablocks made for one render, removed afterwards (newest first)."""
-
-    def __init__(self):
-        self.blocks: list[tuple[str, object]] = []
-
-    def add(self, kind: str, block):
-        self.blocks.append((kind, block))
-        return block
-
-    def remove_all(self) -> None:
-        for kind, block in reversed(self.blocks):
-            collection = getattr(bpy.data, kind)
-            try:
-                if block.name in collection and collection[block.name] == block:
-                    collection.remove(block)
-            except ReferenceError:     # already freed with its owner
-                pass
-        self.blocks.clear()
-
-
-def _add_sphere(scratch: _Scratch, model):
-    """A smooth UV sphere without UVs (so the tangent field is the protocol's) with a
-    material holding ``model``'s factors; (object, material)."""
-    import bmesh
-
-    mesh = scratch.add("meshes", bpy.data.meshes.new("SM EEVEE sphere"))
-    bm = bmesh.new()
-    bmesh.ops.create_uvsphere(bm, u_segments=SPHERE_SEGMENTS,
-                              v_segments=SPHERE_SEGMENTS // 2, radius=1.0, calc_uvs=False)
-    bm.to_mesh(mesh)
-    bm.free()
-    mesh.shade_smooth()
-    sphere = scratch.add("objects", bpy.data.objects.new("SM EEVEE sphere", mesh))
-    material = scratch.add("materials", bpy.data.materials.new("SM EEVEE sphere"))
-    material.spectral.enabled = True
-    mesh.materials.append(material)
-    storage.store_factored(material, model)
-    scratch.add("images", material.spectral.result.image)
-    if material.spectral.result.plot is not None:
-        scratch.add("images", material.spectral.result.plot)
-    return sphere, material
-
-
-def _add_sun_and_camera(scratch: _Scratch, incidence_deg: float, illuminant: str):
-    """A sun of strength 1 in ``illuminant`` at ``incidence_deg`` from +z in the xz plane,
-    and an orthographic camera down −z framing the unit sphere; (sun, camera)."""
-    from mathutils import Vector
-
-    light_data = scratch.add("lights", bpy.data.lights.new("SM EEVEE sun", "SUN"))
-    light_data.energy = 1.0
-    light_data.spectral.illuminant = illuminant
-    sun = scratch.add("objects", bpy.data.objects.new("SM EEVEE sun", light_data))
-    alpha = math.radians(float(incidence_deg))
-    sun.rotation_euler = Vector((math.sin(alpha), 0.0, math.cos(alpha))).to_track_quat(
-        "Z", "Y").to_euler()
-    camera_data = scratch.add("cameras", bpy.data.cameras.new("SM EEVEE camera"))
-    camera_data.type = "ORTHO"
-    camera_data.ortho_scale = 2.0
-    camera = scratch.add("objects", bpy.data.objects.new("SM EEVEE camera", camera_data))
-    camera.location = (0.0, 0.0, 5.0)
-    return sun, camera
-
-
-def _render_rgb(scene, size: int, samples: int) -> tuple[np.ndarray, float]:
-    """Render ``scene`` with EEVEE (Standard view, no look) to a float EXR; (RGB, seconds)."""
-    import tempfile
-    import time
-    from pathlib import Path
-
-    from ...core.formats.exr import read_exr
-
-    render = scene.render
-    render.engine = compat.EEVEE_ENGINE
-    render.resolution_x = render.resolution_y = size
-    render.resolution_percentage = 100
-    render.filter_size = 0.0
-    scene.eevee.taa_render_samples = samples
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
-    scene.view_settings.exposure = 0.0
-    render.image_settings.file_format = "OPEN_EXR"
-    render.image_settings.color_depth = "32"
-    with tempfile.TemporaryDirectory() as folder:
-        render.filepath = str(Path(folder) / "sphere.exr")
-        start = time.perf_counter()
-        bpy.ops.render.render(write_still=True, scene=scene.name)
-        seconds = time.perf_counter() - start
-        channels, _ = read_exr(Path(folder) / "sphere.exr")
-    return np.stack([channels[c] for c in "RGB"], axis=-1), seconds
-
-
-def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D65",
-                        size: int = 256, *, samples: int = 1) -> tuple[np.ndarray, dict]:
-    """The protocol sphere rendered by EEVEE through the node group: (XYZ (size, size, 3)
-    with row 0 at the bottom, protocol-normalised; facts about the render).
-
-    Everything is built in a throw-away scene (a UV sphere without UVs, so the tangent
-    field is the protocol's; an orthographic camera down −z; a sun of strength 1 in
-    ``illuminant``; a black world) and removed afterwards; the file's working colour
-    space is Rec.2020 during the render and restored after it.
-    """
-    from ..gpu.offscreen import check_size
-
-    check_size(size, size)
-    scratch = _Scratch()
-    previous_space = working_space()
-    scene = scratch.add("scenes", bpy.data.scenes.new("SM EEVEE sphere"))
-    material = None
-    try:
-        sphere, material = _add_sphere(scratch, model)
-        sun, camera = _add_sun_and_camera(scratch, incidence_deg, illuminant)
-        for obj in (sphere, sun, camera):
-            scene.collection.objects.link(obj)
-        scene.camera = camera
-        scene.world = scratch.add("worlds", black_world("SM EEVEE black"))
-        # Blender 4.x renders in its one scene-linear space, which scene_linear_to_xyz
-        # below then undoes instead of the protocol's.
-        space = PROTOCOL_WORKING_SPACE if compat.can_set_working_space() else previous_space
-        if previous_space != space:
-            bpy.ops.wm.set_working_color_space(working_space=space, convert_colors=False)
-        counts = apply_eevee(material, scene, light_object=sun)
-        rgb, seconds = _render_rgb(scene, size, samples)
-        xyz = scene_linear_to_xyz(rgb, scene.spectral.adaptation_white, space)
-        return xyz, {"seconds": seconds, "working_space": space, **counts}
-    finally:
-        if working_space() != previous_space:
-            bpy.ops.wm.set_working_color_space(working_space=previous_space,
-                                               convert_colors=False)
-        if material is not None:
-            remove_eevee(material, scene)
-        scratch.remove_all()

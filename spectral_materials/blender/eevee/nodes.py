@@ -1,29 +1,30 @@
-"""The EEVEE node group that reconstructs a material's factor packs for its key light.
+"""The EEVEE node group that reconstructs a material's factor packs for its spectral lights.
 
-``build_group(material, key_light, ...)`` writes a shader node group ``SM EEVEE
-<material>`` that does, in nodes, what ``glsl/brdf/surface_frag.glsl`` does for one
-light, stage by stage in labelled frames:
+``build_group(material, model, image, lights, ...)`` writes a shader node group ``SM
+EEVEE <material>`` that does, in nodes, what ``glsl/brdf/surface_frag.glsl`` does for
+each of a few lights (the key light first), stage by stage in labelled frames:
 
 1. *Shading frame*: n (Geometry normal), t (UV tangent, or the generated field
-   normalize(ŷ × n), x̂ at its poles), Gram–Schmidt; wi toward the key light (its
+   normalize(ŷ × n), x̂ at its poles), Gram–Schmidt; per light, wi toward it (its
    position or direction come from drivers on the light object), wo = Incoming.
 2. *Coordinates*: the parameterisation (io, io_iso, ea, hd, hd_iso) from local wi, wo.
 3. *Axis lookups*: indices and weight per axis, as ``axes.axis_lookup``.
 4. *Packs*: per pack and axis, two texels of the factor image (``Closest``, so the
    interpolation is the one written here, as in the GLSL), lerped and multiplied.
-5. *Colour*: each pack's 4 terms times their RGB weights for the key light (the
+5. *Colour*: each pack's 4 terms times their RGB weights for that light (the
    spectral factor folded with the light's SPD × CMFs, ``core.prefilter``), summed,
-   times the key light's irradiance / π: scene-linear radiance.
+   times the light's irradiance / π: scene-linear radiance.
 6. *Specular lobe* (models that carry one, ``core.brdf.lobe``): the lobe's two terms
    from local wi, wo as ``glsl/brdf/specular_lobe.glsl``, times their RGB weights,
    added to the packs' radiance outside the horizon rule's scale.
 
-Outputs: ``Key light`` (that radiance, for an Emission shader) and ``Base Color``,
-``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the other lights'
-irradiance-weighted spectrum, ``core.prefilter.fit_principled``, for a Principled BSDF
-that the other lights and the world light). EEVEE gives nodes no per-light data: the key
-light is the only one evaluated spectrally and unshadowed (an emission casts no
-shadow); the apply step keeps it from also lighting the Principled BSDF.
+Outputs: ``Spectral lights`` (the sum of those radiances, for an Emission shader) and
+``Base Color``, ``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the
+other lights' irradiance-weighted spectrum, ``core.prefilter.fit_principled``, for a
+Principled BSDF that the other lights and the world light). EEVEE gives nodes no
+per-light data, so each spectral light has its own driven chain of nodes, and is
+unshadowed (an emission casts no shadow); the apply step keeps the spectral lights from
+also lighting the Principled BSDF.
 """
 
 from __future__ import annotations
@@ -38,6 +39,9 @@ from ...core.brdf.factored import FactoredBRDF
 from .lobe_nodes import lobe_rgb
 
 GROUP_PREFIX = "SM EEVEE "
+#: Spectral lights a group evaluates at most: each adds its own chain of nodes (and node
+#: constants, which EEVEE caps at 64 KiB: ``uniform_bytes``).
+MAX_SPECTRAL_LIGHTS = 4
 SUPPORTED = ("io", "io_iso", "ea", "hd", "hd_iso")
 #: Below this |v.xy| an azimuth is taken as 0 (as glsl/brdf/parameterization.glsl).
 POLE_RHO = 1e-5
@@ -258,8 +262,9 @@ def _key_light_drivers(g: Graph, key: KeyLight, column: int):
     return vector.outputs[0], strength.outputs[0]
 
 
-def _frame_and_light(g: Graph, key: KeyLight, use_uv_tangent: bool):
-    g.begin("Shading frame and key light")
+def _shading_frame(g: Graph, use_uv_tangent: bool):
+    """(geometry node, t, b, n): the shading frame, as glsl/common/frame.glsl."""
+    g.begin("Shading frame")
     geometry = g.node("ShaderNodeNewGeometry", 0, "Geometry")
     n = g.vmath("NORMALIZE", geometry.outputs["Normal"], column=1, label="n")
     generated = g.vmath("CROSS_PRODUCT", (0.0, 1.0, 0.0), n, column=1, label="ŷ × n")
@@ -279,6 +284,14 @@ def _frame_and_light(g: Graph, key: KeyLight, use_uv_tangent: bool):
     else:
         t = generated
     b = g.vmath("CROSS_PRODUCT", n, t, column=7, label="b = n × t")
+    return geometry, t, b, n
+
+
+def _light_incidence(g: Graph, key: KeyLight, frame, label: str):
+    """(wi, wo, irradiance, lit) of one spectral light, its position or direction and
+    strength driven from the light object."""
+    geometry, t, b, n = frame
+    g.begin(label)
     vector, strength = _key_light_drivers(g, key, 0)
     if key.kind == "SUN":
         wi_world = g.vmath("NORMALIZE", vector, column=2, label="toward the sun")
@@ -312,7 +325,8 @@ def _empty_group(name: str):
         group = bpy.data.node_groups.new(name, "ShaderNodeTree")
     group.nodes.clear()
     group.interface.clear()
-    group.interface.new_socket("Key light", in_out="OUTPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Spectral lights", in_out="OUTPUT",
+                               socket_type="NodeSocketColor")
     group.interface.new_socket("Base Color", in_out="OUTPUT", socket_type="NodeSocketColor")
     group.interface.new_socket("Roughness", in_out="OUTPUT", socket_type="NodeSocketFloat")
     group.interface.new_socket("IOR", in_out="OUTPUT", socket_type="NodeSocketFloat")
@@ -386,11 +400,14 @@ def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
         group.links.new(node.outputs[0], output.inputs[socket])
 
 
-def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
+def build_group(material, model: FactoredBRDF, image, key: KeyLight | list[KeyLight], *,
                 use_uv_tangent: bool = False, name: str | None = None):
     """(Re)write the node group ``name`` (default: the material's); returns it.
 
-    Raises ValueError for what the EEVEE path cannot reconstruct.
+    ``key``: the spectral lights, the key light first (its ``fit`` feeds the Principled
+    outputs); each gets its own incidence, lookups, packs and lobe frames, summed into
+    the ``Spectral lights`` output. Raises ValueError for what the EEVEE path cannot
+    reconstruct.
     """
     parameterization = model.grid.parameterization.name
     if parameterization not in SUPPORTED:
@@ -399,11 +416,36 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
                          "refactor with one of them")
     if model.form != "cp":
         raise ValueError(f"Material '{material.name}': only CP factor packs have an EEVEE path")
+    lights = list(key) if isinstance(key, list | tuple) else [key]
+    if not lights:
+        raise ValueError(f"Material '{material.name}': the EEVEE path needs a spectral light")
+    if model.lobe is not None and any(light.lobe_weights is None for light in lights):
+        raise ValueError(f"Material '{material.name}': a spectral light has no weights "
+                         "for the material's specular lobe")
     group = _empty_group(name or group_name(material))
     g = Graph(group)
-    wi, wo, irradiance, lit = _frame_and_light(g, key, use_uv_tangent)
+    frame = _shading_frame(g, use_uv_tangent)
     base = 14
-    g.begin(f"Coordinates ({parameterization})")
+    total = None
+    for index, light in enumerate(lights):
+        label = "key light" if index == 0 else f"light {index + 1}"
+        radiance = _light_radiance(g, model, image, light, frame, label, base)
+        total = radiance if total is None else g.vmath("ADD", total, radiance,
+                                                       column=base + 34, label="Σ lights")
+    g.begin("Other lights: Lambert + GGX fitted under their spectrum")
+    output = g.node("NodeGroupOutput", base + 35)
+    group.links.new(total, output.inputs["Spectral lights"])
+    _fitted_outputs(g, group, output, lights[0].fit, base + 23)
+    return group
+
+
+def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, label: str,
+                    base: int):
+    """One spectral light's reflected radiance (scene-linear RGB), its frames labelled
+    ``label``: incidence, coordinates, axis lookups, packs and the lobe."""
+    parameterization = model.grid.parameterization.name
+    wi, wo, irradiance, lit = _light_incidence(g, key, frame, f"{label}: incidence")
+    g.begin(f"{label}: coordinates ({parameterization})")
     coords = _coordinates(g, parameterization, wi, wo, base)
     base += 12
     lookups, horizon = _axis_lookups(g, model, coords, base)
@@ -413,30 +455,23 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight, *,
     weights[: model.terms] = key.weights
     total = None
     for pack in range(groups):
-        g.begin(f"Pack {pack + 1}")
+        g.begin(f"{label}: pack {pack + 1}")
         pack_rgb = _pack_rgb(g, image, lookups, pack, groups, weights, base)
         total = pack_rgb if total is None else g.vmath("ADD", total, pack_rgb, column=base + 8)
-    g.begin("Key light radiance")
+    g.begin(f"{label}: radiance")
     lit_scale = g.math("MULTIPLY", g.math("MULTIPLY", irradiance, lit, column=base + 9),
                        1.0 / math.pi, column=base + 10, label="E · lit / π")
     scale = lit_scale
     if horizon is not None:
         scale = g.math("MULTIPLY", scale, horizon, column=base + 10, label="× horizon")
-    radiance = g.vmath("SCALE", total, scale=scale, column=base + 11, label="key light")
+    radiance = g.vmath("SCALE", total, scale=scale, column=base + 11, label=label)
     if model.lobe is not None:
-        if key.lobe_weights is None:
-            raise ValueError(f"Material '{material.name}': the key light has no weights "
-                             "for the material's specular lobe")
-        g.begin("Specular lobe")
+        g.begin(f"{label}: specular lobe")
         lobe = lobe_rgb(g, model, wi, wo, np.asarray(key.lobe_weights, np.float64), base)
         radiance = g.vmath("ADD", radiance, g.vmath("SCALE", lobe, scale=lit_scale,
                                                     column=base + 11),
-                           column=base + 11, label="key light with lobe")
-    g.begin("Other lights: Lambert + GGX fitted under their spectrum")
-    output = g.node("NodeGroupOutput", base + 12)
-    group.links.new(radiance, output.inputs["Key light"])
-    _fitted_outputs(g, group, output, key.fit, base)
-    return group
+                           column=base + 11, label=f"{label} with lobe")
+    return radiance
 
 
 #: EEVEE keeps every unlinked node input in one uniform block, which drivers cap at

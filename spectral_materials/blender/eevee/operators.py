@@ -10,8 +10,9 @@ from . import apply as eevee
 
 
 class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
-    """Reconstruct the active material's factor packs in an EEVEE node group (the key light
-    spectrally, the other lights and the world through a fitted RGB Principled BSDF)"""
+    """Reconstruct the active material's factor packs in an EEVEE node group (the scene's
+    Spectral lights count of lights spectrally, the others and the world through a fitted
+    RGB Principled BSDF)"""
 
     bl_idname = "spectral.eevee_apply"
     bl_label = "Apply EEVEE Node Group"
@@ -25,14 +26,16 @@ class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
     def execute(self, context):
         material = active_material(context)
         try:
-            counts = eevee.apply_eevee(material, context.scene, measure=True)
+            counts = eevee.apply_eevee(material, context.scene, measure=True,
+                                       lights=context.scene.spectral.eevee_spectral_lights)
         except EXPECTED_ERRORS as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         de = counts["de94"]
-        self.report({"INFO"}, f"'{material.name}': {counts['nodes']} nodes, "
-                              f"{counts['images']} texture(s); key light ΔE94 mean "
-                              f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm")
+        self.report({"INFO"}, f"'{material.name}': {len(counts['lights'])} spectral "
+                              f"light(s), {counts['nodes']} nodes, {counts['images']} "
+                              f"texture(s); key light ΔE94 mean {de['mean']:.3f}, p95 "
+                              f"{de['p95']:.3f} against 5 nm")
         return {"FINISHED"}
 
 

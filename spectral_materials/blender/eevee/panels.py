@@ -6,6 +6,8 @@ where it was, above the Clear button; the package's ``register()`` adds it there
 
 from __future__ import annotations
 
+import bpy
+
 from . import apply as eevee
 
 
@@ -13,12 +15,14 @@ def draw_eevee(layout, material) -> None:
     """The EEVEE box of ``material``."""
     box = layout.box()
     record = eevee.applied(material)
+    box.prop(bpy.context.scene.spectral, "eevee_spectral_lights")
     if record is None:
         box.label(text="EEVEE: not applied", icon="SHADING_RENDERED")
         box.operator("spectral.eevee_apply", icon="NODETREE")
         return
-    box.label(text=f"EEVEE: key light '{record['light']}' ({record['working_space']})",
-              icon="SHADING_RENDERED")
+    lights = record.get("lights") or [record["light"]]
+    box.label(text=f"EEVEE: spectral {', '.join(repr(n) for n in lights)} "
+                   f"({record['working_space']})", icon="SHADING_RENDERED")
     box.label(text=f"{record['nodes']} nodes, {record['images']} texture(s)")
     de = record.get("de94")
     if de:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,11 @@ from scipy import ndimage
 
 from spectral_materials.blender import compat
 from spectral_materials.blender.brdf import jobs, storage
-from spectral_materials.blender.eevee import apply as eevee, nodes as eevee_nodes
+from spectral_materials.blender.eevee import (
+    apply as eevee,
+    nodes as eevee_nodes,
+    render as eevee_render,
+)
 from spectral_materials.core.brdf import factor, models, prefilter, shading
 from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 from spectral_materials.core.formats.exr import read_exr
@@ -230,7 +235,7 @@ def test_eevee_sphere_matches_the_python_evaluation(clean_scene, parameterizatio
     model = _model(parameterization, resolution, lobe,
                    nv=32.0 if parameterization.endswith("_iso") else 96.0)
     assert (model.lobe is not None) == (lobe is not None)
-    xyz, facts = eevee.render_sphere_eevee(model, incidence, illuminant, 64)
+    xyz, facts = eevee_render.render_sphere_eevee(model, incidence, illuminant, 64)
     # Blender 4.x cannot change its working space (Linear Rec.709): rendered in that.
     space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
     assert facts["working_space"] == space
@@ -257,3 +262,54 @@ def test_render_sphere_command_with_eevee(iso_model, tmp_path):
     channels, header = read_exr(out)
     assert header["engine"] == "eevee" and sorted(channels) == ["X", "Y", "Z"]
     assert channels["Y"].max() > 0.1
+
+
+def test_two_spectral_lights_match_the_python_evaluation(clean_scene):
+    """Both suns through the factor packs (and the lobe): EEVEE's sphere against the
+    float64 evaluation of the same model under the two lights."""
+    model = _model("io_iso", (16, 32, 16), AS_LOBE)
+    extra = (50.0, 120.0, "FL2")
+    xyz, facts = eevee_render.render_sphere_eevee(model, 30.0, "D65", 64, extra_suns=(extra,),
+                                                  spectral_lights=2)
+    assert facts["lights"] == ["SM EEVEE sun", "SM EEVEE sun 2"]
+    space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
+    lights = [shading.protocol_sun(30.0, "D65", WL)]
+    alpha, phi = np.radians(extra[0]), np.radians(extra[1])
+    toward = np.array([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi),
+                       np.cos(alpha)])
+    lights.append(replace(shading.protocol_sun(0.0, "FL2", WL), axis=tuple(-toward)))
+    points, mask = shading.sphere_pixels(64)
+    reference = np.zeros((64, 64, 3))
+    reference[mask] = shading.shade_xyz(model, points, points, np.zeros_like(points),
+                                        shading.View(), lights, two_sided=False)
+    to_rgb = prefilter.scene_linear_matrix(colour_pipeline.white_xyz("D65", WL), space)
+    inner = ndimage.binary_erosion(mask, iterations=2)
+    de = colour_pipeline.delta_e94(prefilter.clamped_xyz(reference[inner], to_rgb),
+                                   xyz[inner], colour_pipeline.white_xyz("D65", WL))
+    assert de.mean() <= MEAN_BOUND and np.percentile(de, 95) <= P95_BOUND
+    # One spectral light: the FL2 sun reaches the RGB Principled fit instead, far off.
+    xyz_one, _ = eevee_render.render_sphere_eevee(model, 30.0, "D65", 64, extra_suns=(extra,))
+    de_one = colour_pipeline.delta_e94(prefilter.clamped_xyz(reference[inner], to_rgb),
+                                       xyz_one[inner], colour_pipeline.white_xyz("D65", WL))
+    assert de_one.mean() > 3 * de.mean()
+
+
+def test_apply_and_remove_with_two_spectral_lights(clean_scene, iso_model):
+    material = cube_material(iso_model)
+    second = bpy.data.objects.new("Fill", bpy.data.lights.new("Fill", "POINT"))
+    second.location = (3.0, -2.0, 2.0)
+    second.data.energy = 200.0
+    clean_scene.collection.objects.link(second)
+    bpy.context.view_layer.update()
+    counts = eevee.apply_eevee(material, clean_scene, lights=2)
+    assert sorted(counts["lights"]) == ["Fill", "Light"]
+    cube = bpy.data.objects["Cube"]
+    for name in ("Light", "Fill"):
+        collection = bpy.data.objects[name].light_linking.receiver_collection
+        assert collection is not None and cube.name in collection.objects
+    assert counts["fit"]["under"] == "key light"        # no light is left for the fit
+    with pytest.raises(eevee.EEVEEError, match="1 to 4"):
+        eevee.apply_eevee(material, clean_scene, lights=5)
+    assert eevee.remove_eevee(material, clean_scene)
+    for name in ("Light", "Fill"):
+        assert bpy.data.objects[name].light_linking.receiver_collection is None
