@@ -3,7 +3,7 @@
 One smooth UV sphere (128 segments × 64 rings, with UVs, so the group takes its
 tangent from the UV map), one sun (strength 1, D65, 30° from the view axis), an
 orthographic camera (the sphere's diameter is 94 % of the image side, as in
-``benchmarks.draw``) and a black world (``eevee._black_world``). The sphere's material is
+``benchmarks.draw``) and a black world (``eevee.render.black_world``). The sphere's material is
 a synthetic CP model in the factor-pack paper's layouts (io_iso 90×180×90, hd
 90×45×90×45, spectral basis of 8, packs of 4 terms), stored with
 ``storage.store_factored`` and given the EEVEE node group with ``eevee.apply_eevee``.
@@ -58,11 +58,11 @@ import numpy as np
 from spectral_materials import blender as addon
 from spectral_materials.blender import compat
 from spectral_materials.blender.brdf import storage
-from spectral_materials.blender.eevee import apply as eevee
+from spectral_materials.blender.eevee import apply as eevee, render as eevee_render
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.viewport import draw
 
-from . import harness
+from . import eevee_lights, harness
 from .eevee_render import draw_seconds, eevee_settings, inspect_render, render_once
 from .eevee_report import (
     SAMPLES,
@@ -137,8 +137,7 @@ def build_scene(size: int):
     for obj in (sun, camera):
         scene.collection.objects.link(obj)
     scene.camera = camera
-    black_world = getattr(eevee, "black_world", None) or eevee._black_world
-    scene.world = black_world("Bench black")
+    scene.world = eevee_render.black_world("Bench black")
     render = scene.render
     render.engine = compat.EEVEE_ENGINE
     render.resolution_x = render.resolution_y = size
@@ -163,15 +162,20 @@ class Bench:
         self.size, self.reps, self.draw_calls = size, reps, draw_calls
         self.extra_samples = extra_samples
         self.principled = _principled_material("Bench Principled")
-        self.receivers = None           # the sun's light-linking collection of the material
+        #: The spectral lights' light-linking collections of the material under test.
+        self.receivers: dict = {}
 
     def use(self, material) -> None:
-        """Put ``material`` on the sphere. The Principled baseline is lit by the sun like
-        any material; the spectral one is excluded from it (``apply_eevee``'s light
-        linking: the node group carries the sun)."""
+        """Put ``material`` on the sphere. The Principled baseline is lit by every light
+        like any material; the spectral one is excluded from its spectral lights
+        (``apply_eevee``'s light linking: the node group carries them)."""
         self.sphere.material_slots[0].material = material
-        self.sun.light_linking.receiver_collection = \
-            None if material == self.principled else self.receivers
+        for light, collection in self.receivers.items():
+            light.light_linking.receiver_collection = \
+                None if material == self.principled else collection
+
+    def scene_lights(self) -> list:
+        return [o for o in self.scene.objects if o.type == "LIGHT"]
 
     def render(self, material, samples: int = SAMPLES) -> float:
         self.use(material)
@@ -199,15 +203,17 @@ class Bench:
                 "later_seconds": later, "later_median": float(np.median(later)),
                 "image": image}
 
-    def measure(self, layout: str, packs: int, *, timed: bool = True) -> dict:
-        """One layout and pack count; ``timed=False``: the first render only (a probe)."""
+    def measure(self, layout: str, packs: int, *, timed: bool = True, lights: int = 1) -> dict:
+        """One layout and pack count with ``lights`` spectral lights; ``timed=False``: the
+        first render only (a probe)."""
         model = synthetic_model(layout, packs)
         material = bpy.data.materials.new(f"Bench {layout} {packs}")
         material.spectral.enabled = True
         row = {"layout": layout, "resolution": list(LAYOUTS[layout]),
                "axes": len(LAYOUTS[layout]), "packs": packs, "terms": model.terms,
                "compiled": False, "status": "not rendered", "first_seconds": None,
-               "error_lines": [], "exception": None, "load": harness.load_average()}
+               "error_lines": [], "exception": None, "load": harness.load_average(),
+               "spectral_lights": lights, "scene_lights": len(self.scene_lights())}
         try:
             start = time.perf_counter()
             storage.store_factored(material, model)
@@ -215,12 +221,16 @@ class Bench:
             image = material.spectral.result.image
             row["factor_image"] = list(image.size)
             self.sphere.material_slots[0].material = material
-            self.sun.light_linking.receiver_collection = None
+            for light in self.scene_lights():
+                light.light_linking.receiver_collection = None
             start = time.perf_counter()
-            counts = eevee.apply_eevee(material, self.scene, light_object=self.sun)
+            counts = eevee.apply_eevee(material, self.scene, light_object=self.sun,
+                                       lights=lights)
             row["apply_seconds"] = time.perf_counter() - start
             row.update({k: counts[k] for k in ("nodes", "image_nodes", "images")})
-            self.receivers = self.sun.light_linking.receiver_collection
+            self.receivers = {light: light.light_linking.receiver_collection
+                              for light in self.scene_lights()
+                              if light.light_linking.receiver_collection is not None}
             row["material_nodes"] = sum(1 for n in material.node_tree.nodes
                                         if n.bl_idname != "NodeFrame")
             self._first_render(material, row)
@@ -233,7 +243,7 @@ class Bench:
         finally:
             self.use(material)
             eevee.remove_eevee(material, self.scene)
-            self.receivers = None
+            self.receivers = {}
             self.use(self.principled)
             result = material.spectral.result
             for block in (result.image, result.plot):
@@ -377,6 +387,10 @@ def parse_args(argv: list[str] | None = None):
     parser.add_argument("--packs", type=int, nargs="+", default=None,
                         help=f"pack counts (default {PACKS}; --quick {QUICK_PACKS})")
     parser.add_argument("--layouts", nargs="+", choices=list(LAYOUTS), default=list(LAYOUTS))
+    parser.add_argument("--light-packs", type=int, nargs="*", default=None,
+                        help="pack counts of the spectral-lights sweep (io_iso, a second "
+                             f"sun; default {list(eevee_lights.LIGHT_PACKS)}, --quick "
+                             f"{list(eevee_lights.QUICK_LIGHT_PACKS)}; none: no sweep)")
     parser.add_argument("--reps", type=int, default=2,
                         help="spectral renders at 1 sample per configuration, after the "
                              "first (median; default 2)")
@@ -395,6 +409,8 @@ def parse_args(argv: list[str] | None = None):
     args = parser.parse_args(argv)
     args.size = args.size or (128 if args.quick else 512)
     args.packs = args.packs or (QUICK_PACKS if args.quick else PACKS)
+    args.light_packs = args.light_packs or (eevee_lights.QUICK_LIGHT_PACKS if args.quick
+                                            else eevee_lights.LIGHT_PACKS)
     return args
 
 
@@ -448,12 +464,13 @@ def run(args) -> dict:
         f"Principled first {principled['first_seconds']:.2f} s, later "
         f"{principled['later_median']:.2f} s")
     rows, limits = sweep(bench, args)
+    light_rows = eevee_lights.sweep_lights(bench, args.light_packs, log)
     info["load_end"] = harness.load_average()
     return {
         "date": harness.date_stamp(), "command": harness.command_line("eevee"),
         "seconds": time.perf_counter() - started, "machine": info, "quick": args.quick,
         "settings": settings(args, scene),
-        "principled": principled, "rows": rows, "limits": limits,
+        "principled": principled, "rows": rows, "limits": limits, "light_rows": light_rows,
         "per_pack": per_pack(rows), "notes": notes(rows, principled),
     }
 
@@ -462,7 +479,9 @@ def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
     results = run(args)
     out, stem = Path(args.out), harness.output_stem("eevee", args.quick)
-    harness.write_outputs(out, stem, results, write_markdown, default=str)
+    harness.write_outputs(
+        out, stem, results,
+        lambda res, path: write_markdown(res, path, eevee_lights.lights_lines(res)), default=str)
     print()
     print("\n".join(main_table(results["rows"])))
     print()

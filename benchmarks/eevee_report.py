@@ -293,6 +293,7 @@ def _per_pack_lines(results: dict) -> list[str]:
     return lines
 
 
-def write_markdown(results: dict, path: Path) -> None:
+def write_markdown(results: dict, path: Path, extra: list[str] = ()) -> None:
+    """The report; ``extra``: more sections at the end (``eevee_lights.lights_lines``)."""
     write_lines(path, [*_header(results), *_method(results), *_results(results),
-                       *_per_pack_lines(results)])
+                       *_per_pack_lines(results), *extra])

@@ -1,0 +1,87 @@
+"""The EEVEE benchmark's spectral-lights sweep (issue 18: "each of up to N lights through
+the factor packs ... measure the cost against the Principled baseline").
+
+After the packs sweep of ``benchmarks.eevee``, a second sun (FL2, 50° from the view axis,
+at azimuth 120°) joins the scene, and the io_iso sphere is measured at a few pack counts
+with the key light alone spectral (the second sun reaching the fitted Principled BSDF)
+and with both suns spectral. Every render of a row alternates with the Principled
+baseline lit by both suns, as in the packs sweep.
+"""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+
+from .eevee_report import fmt, to_ms
+
+LIGHT_PACKS = (4, 16)
+QUICK_LIGHT_PACKS = (4,)
+#: The second sun: incidence from the view axis (°), azimuth (°), illuminant.
+SECOND_SUN = (50.0, 120.0, "FL2")
+LAYOUT = "io_iso"
+
+
+def add_second_sun(scene):
+    """Link the second sun (strength 1) into ``scene``; returns its object."""
+    from mathutils import Vector
+
+    incidence, azimuth, illuminant = SECOND_SUN
+    data = bpy.data.lights.new("Bench sun 2", "SUN")
+    data.energy = 1.0
+    data.spectral.illuminant = illuminant
+    sun = bpy.data.objects.new("Bench sun 2", data)
+    alpha, phi = math.radians(incidence), math.radians(azimuth)
+    toward = Vector((math.sin(alpha) * math.cos(phi), math.sin(alpha) * math.sin(phi),
+                     math.cos(alpha)))
+    sun.rotation_euler = toward.to_track_quat("Z", "Y").to_euler()
+    scene.collection.objects.link(sun)
+    return sun
+
+
+def sweep_lights(bench, packs: list[int], log) -> list[dict]:
+    """1 and 2 spectral lights at each of ``packs`` (io_iso); the second sun is removed
+    afterwards."""
+    if not packs:
+        return []
+    sun = add_second_sun(bench.scene)
+    rows = []
+    try:
+        for count in packs:
+            for lights in (1, 2):
+                row = bench.measure(LAYOUT, count, lights=lights)
+                rows.append(row)
+                log(f"  {LAYOUT} {count:2d} packs, {lights} spectral light(s): "
+                    f"{row.get('nodes', 0)} nodes, later {fmt(row.get('later_median'))} s, "
+                    f"/P {fmt(row.get('over_principled'))}  {row['status']}")
+    finally:
+        data = sun.data
+        bpy.data.objects.remove(sun)
+        bpy.data.lights.remove(data)
+    return rows
+
+
+def lights_lines(results: dict) -> list[str]:
+    """The sweep's table, or nothing when it did not run."""
+    rows = results.get("light_rows") or []
+    if not rows:
+        return []
+    incidence, azimuth, illuminant = SECOND_SUN
+    lines = ["## Spectral lights", "",
+             f"The same scene with a second sun ({illuminant}, {incidence:g}° from the view "
+             f"axis at azimuth {azimuth:g}°), the {LAYOUT} sphere with the key light alone "
+             "spectral (the second sun lights the fitted Principled BSDF) and with both "
+             "suns spectral (each its own chain of nodes). *render / Principled*: against "
+             "the Principled BSDF lit by both suns, renders interleaved as above.", "",
+             "| packs | spectral lights | group nodes | image nodes | first render s | "
+             "later render s | render / Principled | ms per extra sample | status |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(
+            f"| {r['packs']} | {r['spectral_lights']} | {r.get('nodes', '–')} | "
+            f"{r.get('image_nodes', '–')} | {fmt(r.get('first_seconds'))} | "
+            f"{fmt(r.get('later_median'))} | {fmt(r.get('over_principled'))} | "
+            f"{fmt(to_ms(r.get('per_sample_seconds')), '.0f')} | {r['status']} |")
+    lines.append("")
+    return lines
