@@ -141,12 +141,19 @@ def addon_options(case: Case, theta_cells: int, packs: int, lobe: str = DEFAULT_
     (``sources.resolve_auto``), input/output otherwise; the parameterisation's default
     grid is scaled so that θ has ``theta_cells`` cells."""
     isotropic = is_isotropic(case.brdf, WAVELENGTHS)
-    name = "hd" if case.glossy_analytic and not isotropic and lobe == "off" else "io"
-    param, isotropic = resolve_parameterization(case.brdf, name, isotropic, WAVELENGTHS)
-    resolution = get_parameterization(name, isotropic).theta_resolution(theta_cells)
-    return FactorOptions(parameterization=param.name, resolution=resolution,
-                         isotropic=isotropic, packs=packs, target_de94=None,
-                         pack_size=DEFAULT_PACK_SIZE, smoothing=DEFAULT_SMOOTHING, lobe=lobe)
+
+    def layout(with_lobe: str) -> tuple[str, tuple[int, ...], bool]:
+        name = "hd" if case.glossy_analytic and not isotropic and with_lobe == "off" else "io"
+        param, iso = resolve_parameterization(case.brdf, name, isotropic, WAVELENGTHS)
+        return param.name, get_parameterization(name, iso).theta_resolution(theta_cells), iso
+
+    name, resolution, iso = layout(lobe)
+    plain = layout("off")
+    return FactorOptions(parameterization=name, resolution=resolution,
+                         isotropic=iso, packs=packs, target_de94=None,
+                         pack_size=DEFAULT_PACK_SIZE, smoothing=DEFAULT_SMOOTHING, lobe=lobe,
+                         automatic=True,
+                         plain_layout=None if plain[0] == name else plain[:2])
 
 
 def choose_basis(cases: list[Case], lights: dict[str, str]) -> scene_basis.SceneBasisChoice:

@@ -9,6 +9,9 @@
 * **Light loop** (issue 19): with several lights, packs outermost and the view's axes
   (θo for io_iso) fetched once per pack for all lights, against the light-by-light loop
   (the same variant with that branch compiled out, :func:`light_by_light_shader`).
+* **Specular lobe** (issue 18): the same packs with an analytic Ashikhmin–Shirley lobe
+  beside them (``core/brdf/lobe.py``, ``glsl/brdf/specular_lobe.glsl``: closed-form ALU
+  per light and two more light-row texels) against the packs alone.
 * **Texel blend** (issue 19): BTF texels blended across their edges
   (``render.EDGE_BLEND``) against nearest texels (the same variant compiled with a band
   of 0), on :mod:`benchmarks.btf`'s corduroy fits and UV sphere (800², 4 repeats).
@@ -37,6 +40,7 @@ from spectral_materials.blender.gpu import shaders
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.display import DisplaySettings
 from spectral_materials.blender.gpu.textures import float_texture
+from spectral_materials.core.brdf.lobe import SpecularLobe
 from spectral_materials.core.brdf.shading import light_texels
 
 from . import harness
@@ -47,11 +51,13 @@ from .synthetic import DISC_FRACTION, synthetic_model
 #: (comparison, packs, lights) measured.
 CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
          ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4),
-         ("light loop", 4, 4), ("light loop", 22, 4), ("light loop", 4, 8))
+         ("light loop", 4, 4), ("light loop", 22, 4), ("light loop", 4, 8),
+         ("specular lobe", 4, 1), ("specular lobe", 4, 4))
 #: BTF cases: (comparison, reflectance-field kind, lights), on their own target.
 BTF_CASES = (("texel blend", "RFP", 1), ("texel blend", "RFNL", 1), ("texel blend", "RFNL", 4))
 LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer"),
           "light loop": ("light by light", "view axes once per pack"),
+          "specular lobe": ("packs alone", "packs + lobe"),
           "texel blend": ("nearest texel", "blended edges")}
 #: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack.
 HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1"
@@ -93,6 +99,13 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
             key = material.key(lights, precontract=True, output="DISPLAY")
             out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
+    if comparison == "specular lobe":
+        out = []
+        for lobe in (None, benchmark_lobe(model.spectral_size)):
+            material = GPUMaterial(replace(model, lobe=lobe))
+            key = material.key(lights, precontract=True, output="DISPLAY")
+            out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
+        return out
     material = GPUMaterial(model)
     key = material.key(lights, precontract=True, output="DISPLAY")
     if comparison == "light loop":
@@ -104,6 +117,14 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
     texture = float_texture(light_texels(model, lights, precontract=True))
     return (material_binder(bench, material, replace(key, light_stride=0), texture),
             material_binder(bench, material, key, material.light_texture(lights, True)))
+
+
+def benchmark_lobe(spectral_size: int) -> SpecularLobe:
+    """An Orange-gloss-like lobe (nu = nv = 32) with positive spectra: the cost does not
+    depend on the values."""
+    spectral = np.full((spectral_size, 2), 0.05, dtype=np.float32)
+    spectral[:, 1] = 1.0
+    return SpecularLobe("ashikhmin_shirley", 32.0, 32.0, spectral)
 
 
 def btf_binders(fits: dict, data, kind: str, n_lights: int, vp):
@@ -187,7 +208,9 @@ def markdown(results: dict) -> list[str]:
              "compiled variant. *Light rows*: the light rows from the uniform buffer "
              "`sm_lights` against the light texture (issue 19). *Light loop*: with several "
              "lights, packs outermost and θo's factors fetched once per pack for all lights, "
-             "against the light-by-light loop (issue 19). These three: io_iso 90×180×90, "
+             "against the light-by-light loop (issue 19). *Specular lobe*: the same packs "
+             "with an analytic Ashikhmin–Shirley lobe beside them (issue 18). These four: "
+             "io_iso 90×180×90, "
              "pre-contracted, synthetic packs, on the draw benchmark's sphere. *Texel "
              "blend*: BTF texels blended within 1/16 texel of their edges against nearest "
              "texels (issue 19), corduroy fits (16² texels, 4 repeats over the UVs) on an 800² "

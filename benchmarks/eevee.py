@@ -409,8 +409,9 @@ def parse_args(argv: list[str] | None = None):
     args = parser.parse_args(argv)
     args.size = args.size or (128 if args.quick else 512)
     args.packs = args.packs or (QUICK_PACKS if args.quick else PACKS)
-    args.light_packs = args.light_packs or (eevee_lights.QUICK_LIGHT_PACKS if args.quick
-                                            else eevee_lights.LIGHT_PACKS)
+    if args.light_packs is None:
+        args.light_packs = (eevee_lights.QUICK_LIGHT_PACKS if args.quick
+                            else eevee_lights.LIGHT_PACKS)
     return args
 
 

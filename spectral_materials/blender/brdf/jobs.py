@@ -86,10 +86,17 @@ def factor_options(inputs: sources.MaterialInputs, brdf, isotropic: bool) -> Fac
     name = sources.resolve_auto(inputs.parameterization, isotropic, inputs.lobe)
     param, isotropic = resolve_parameterization(brdf, name, isotropic, sources.WAVELENGTHS)
     resolution = sources.resolution_for(name, isotropic, inputs.theta_cells)
+    # Automatic gives packs alone another layout than packs beside a lobe (hd for an
+    # anisotropic glossy model): used when the lobe is not kept.
+    plain = sources.resolve_auto(inputs.parameterization, isotropic, "off")
+    plain_layout = None if plain == name else (
+        resolve_parameterization(brdf, plain, isotropic, sources.WAVELENGTHS)[0].name,
+        sources.resolution_for(plain, isotropic, inputs.theta_cells))
     return FactorOptions(parameterization=param.name, resolution=resolution,
                          isotropic=isotropic, packs=inputs.packs, target_de94=inputs.target_de94,
                          pack_size=inputs.pack_size, smoothing=inputs.smoothing,
-                         lobe=inputs.lobe)
+                         lobe=inputs.lobe, automatic=inputs.automatic,
+                         plain_layout=plain_layout)
 
 
 def run_scene_job(plan: ScenePlan, callback: ProgressCallback | None = None, *,

@@ -86,6 +86,7 @@ class MaterialInputs:
     pack_size: int = 4
     smoothing: int = 0
     lobe: str = "off"                         # core/brdf/job.py LOBE_SETTINGS
+    automatic: bool = False                   # the parameterisation is "Automatic"
 
     def brdf(self):
         """The BRDF callable (may run in a worker thread)."""
@@ -103,7 +104,7 @@ class MaterialInputs:
             "file": self.file_sha256, "parameterization": self.parameterization,
             "theta_cells": self.theta_cells, "packs": self.packs,
             "target_de94": self.target_de94, "pack_size": self.pack_size,
-            "smoothing": self.smoothing, "lobe": self.lobe,
+            "smoothing": self.smoothing, "lobe": self.lobe, "automatic": self.automatic,
         }
 
 
@@ -196,7 +197,7 @@ def material_inputs(material) -> MaterialInputs:
                   theta_cells=int(s.theta_cells), packs=int(s.packs),
                   target_de94=float(s.target_de94) if s.use_target else None,
                   pack_size=int(s.pack_size), smoothing=int(s.smoothing),
-                  lobe=s.specular_lobe.lower())
+                  lobe=s.specular_lobe.lower(), automatic=s.parameterization == "AUTO")
     if s.source == "FILE":
         path = _abspath(s.filepath)
         if not path:

@@ -18,12 +18,18 @@ import json
 import bpy
 import numpy as np
 
+from ..._moved import forward_names
 from ...core.brdf import prefilter
 from ...core.colour import pipeline as colour_pipeline
 from .. import compat
 from ..brdf import sources, storage
 from ..lights import scene_lights
 from . import nodes as eevee_nodes
+
+# Served from here for one release: they moved to .render with the rendering helpers.
+__getattr__ = forward_names(__name__, dict.fromkeys(
+    ("render_sphere_eevee", "scene_linear_to_xyz", "black_world", "PROTOCOL_WORKING_SPACE",
+     "SPHERE_SEGMENTS"), "blender.eevee.render"))
 
 FRAME_NAME = "SM EEVEE"
 ORIGINAL_KEY = "sm_eevee_original"
@@ -223,10 +229,9 @@ def refresh(material, scene) -> str:
     if record is None:
         return ""
     light = bpy.data.objects.get(record.get("light", ""))
-    count = max(1, min(len(record.get("lights", [])) or 1, MAX_SPECTRAL_LIGHTS))
     try:
-        apply_eevee(material, scene, light_object=light, lights=count,
-                    measure="de94" in record)
+        apply_eevee(material, scene, light_object=light,
+                    lights=scene.spectral.eevee_spectral_lights, measure="de94" in record)
     except ValueError as exc:
         remove_eevee(material, scene)
         return f"EEVEE path of '{material.name}' removed: {exc}"

@@ -31,7 +31,11 @@ from .params import check_direction_pairs, get_parameterization
 from .tabulate import Grid, multilinear
 
 FORMAT = "spectral_materials.factored_brdf"
-FORMAT_VERSION = 1
+#: 2: the file carries an analytic lobe (``meta["lobe"]``, ``lobe_spectral``), which a
+#: reader of version 1 would drop, taking the residual packs for the whole BRDF; files
+#: without one stay version 1.
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
 
 
 @dataclass
@@ -204,7 +208,7 @@ class FactoredBRDF:
         grid = self.grid
         return {
             "format": FORMAT,
-            "version": FORMAT_VERSION,
+            "version": FORMAT_VERSION if self.lobe is not None else 1,
             "form": self.form,
             "grid": grid.describe(),
             "pack_size": self.pack_size,
@@ -255,9 +259,10 @@ class FactoredBRDF:
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ValueError(f"{path}: corrupt 'meta' entry ({exc})") from exc
         if not isinstance(meta, dict) or meta.get("format") != FORMAT \
-                or meta.get("version") != FORMAT_VERSION:
-            found = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
-            raise ValueError(f"{path}: format {found} is not {FORMAT} v{FORMAT_VERSION}")
+                or meta.get("version") not in READABLE_VERSIONS:
+            found = (f"{meta.get('format')} v{meta.get('version')}" if isinstance(meta, dict)
+                     else type(meta).__name__)
+            raise ValueError(f"{path}: format {found} is not {FORMAT} v1 or v{FORMAT_VERSION}")
         try:
             model = cls._from_meta(meta, arrays)
             model.validate()

@@ -57,6 +57,13 @@ class FactorOptions:
     seed: int = 0
     #: An analytic specular lobe beside the packs (:data:`LOBE_SETTINGS`, core/brdf/lobe.py).
     lobe: str = "off"
+    #: The layout is the add-on's Automatic: packs beside a lobe whose rest is isotropic
+    #: may take the isotropic layout (:func:`residual_layout`); an explicit choice stays.
+    automatic: bool = False
+    #: (parameterisation, resolution) of packs without a lobe, where Automatic picks
+    #: another layout for them (half/difference for an anisotropic glossy model); None:
+    #: the same as with a lobe.
+    plain_layout: tuple | None = None
 
 
 @dataclass
@@ -87,9 +94,14 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     counts = None if options.target_de94 is not None else list(range(1, options.packs + 1))
     lobe_options = options if lobe is None else residual_layout(brdf, lobe, basis, options,
                                                                 lobe_report)
+    plain_options = options
+    if options.plain_layout is not None:
+        name, resolution = options.plain_layout
+        plain_options = replace(options, parameterization=name, resolution=tuple(resolution),
+                                isotropic=str(name).endswith("_iso") or options.isotropic)
 
     def fit(with_lobe, low, high):
-        chosen = lobe_options if with_lobe is not None else options
+        chosen = lobe_options if with_lobe is not None else plain_options
         return factor_brdf_series(
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
@@ -182,9 +194,10 @@ def _keep_the_better(brdf, with_lobe: list[FactoredBRDF], without: list[Factored
 def residual_layout(brdf, lobe: SpecularLobe, basis: LinearModelBasis | None,
                     options: FactorOptions, figures: dict) -> FactorOptions:
     """The options the packs beside ``lobe`` are fitted with: ``options``, or for an
-    anisotropic input/output layout whose rest is isotropic (:data:`ISOTROPIC_RESIDUAL`)
-    the isotropic one with the same θ cells. Writes what it measured into ``figures``."""
-    if options.isotropic or options.parameterization != "io":
+    Automatic anisotropic input/output layout whose rest is isotropic
+    (:data:`ISOTROPIC_RESIDUAL`) the isotropic one with the same θ cells. Writes what it
+    measured into ``figures``."""
+    if not options.automatic or options.isotropic or options.parameterization != "io":
         return options
     wavelengths = spectra.WAVELENGTHS_REFERENCE if basis is None else basis.wavelengths
     anisotropy = residual_anisotropy(brdf, lobe, wavelengths,

@@ -202,7 +202,7 @@ def _sample_chunk(brdf, grid: Grid, flat: np.ndarray, wl: np.ndarray, cosine_wei
     if bad.any():
         counts["nan"] += int(np.isnan(f).sum())
         counts["inf"] += int(np.isinf(f).sum())
-        counts["neg"] += int((f < 0).sum())
+        counts["neg"] += 0 if signed else int((f < 0).sum())
         return None, ok, _describe_bad(grid, flat[ok], wl, bad) if locate else ""
     if cosine_weighted:
         f = f * wi[ok, 2:3]  # never in place: the array may be the caller's
