@@ -313,3 +313,47 @@ def test_apply_and_remove_with_two_spectral_lights(clean_scene, iso_model):
     assert eevee.remove_eevee(material, clean_scene)
     for name in ("Light", "Fill"):
         assert bpy.data.objects[name].light_linking.receiver_collection is None
+
+
+class _Layout:
+    """Records what a panel section draws (Blender gives no UILayout headless)."""
+
+    def __init__(self):
+        self.calls = []
+
+    def box(self):
+        return self
+
+    def row(self, align=False):
+        return self
+
+    def label(self, text="", icon="NONE"):
+        self.calls.append(("label", text))
+
+    def prop(self, data, name, **kwargs):
+        assert hasattr(data, name), name
+        self.calls.append(("prop", name))
+
+    def operator(self, idname, text="", icon="NONE"):
+        self.calls.append(("operator", idname))
+
+
+def test_eevee_box_names_the_spectral_lights(clean_scene, iso_model):
+    from spectral_materials.blender.eevee import panels as eevee_panels
+
+    material = cube_material(iso_model)
+    layout = _Layout()
+    eevee_panels.draw_eevee(layout, material)
+    assert ("prop", "eevee_spectral_lights") in layout.calls
+    assert ("operator", "spectral.eevee_apply") in layout.calls
+    fill = bpy.data.objects.new("Fill", bpy.data.lights.new("Fill", "POINT"))
+    fill.location = (3.0, -2.0, 2.0)
+    clean_scene.collection.objects.link(fill)
+    bpy.context.view_layer.update()
+    clean_scene.spectral.eevee_spectral_lights = 2
+    assert bpy.ops.spectral.eevee_apply() == {"FINISHED"}
+    layout = _Layout()
+    eevee_panels.draw_eevee(layout, material)
+    text = " ".join(t for kind, t in layout.calls if kind == "label")
+    assert "'Light'" in text and "'Fill'" in text
+    assert ("operator", "spectral.eevee_remove") in layout.calls

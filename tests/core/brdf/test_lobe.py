@@ -250,3 +250,35 @@ def test_an_explicit_layout_is_kept_and_automatic_falls_back_without_the_lobe():
     plain = factor_material(ward, basis, replace(automatic, lobe="off"))
     assert plain.model.parameterization == "hd" and plain.model.lobe is None
     assert job.series[-1]["de94"]["mean"] <= 1.05 * plain.series[-1]["de94"]["mean"]
+
+
+def test_hostile_lobe_files_are_refused_naming_the_file(tmp_path):
+    """A lobe with a NaN exponent, spectra of the wrong length, or a missing array: a
+    ValueError naming the file, never a model that draws garbage."""
+    import json as json_module
+
+    model = factor_brdf(_glossy(16.0, 16.0), parameterization="io_iso", isotropic=True,
+                        resolution=(6, 12, 6), packs=1, spectral_basis=4,
+                        lobe="ashikhmin_shirley")
+    path = model.save(tmp_path / "good.npz")
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json_module.loads(arrays["meta"].tobytes().decode())
+    assert meta["version"] == 2
+
+    def write(name, meta_patch=None, drop=None, replace_arrays=None):
+        doc = dict(meta, **(meta_patch or {}))
+        out = {k: v for k, v in arrays.items() if k != drop}
+        out.update(replace_arrays or {})
+        out["meta"] = np.frombuffer(json_module.dumps(doc).encode(), dtype=np.uint8)
+        target = tmp_path / name
+        np.savez(target, **out)
+        return target
+
+    nan_lobe = dict(meta["lobe"], nu=float("nan"))
+    for bad in (write("nan.npz", {"lobe": nan_lobe}),
+                write("short.npz", replace_arrays={"lobe_spectral": np.ones((3, 2), np.float32)}),
+                write("missing.npz", drop="lobe_spectral"),
+                write("future.npz", {"version": 3})):
+        with pytest.raises(ValueError, match=bad.name):
+            FactoredBRDF.load(bad)
