@@ -102,9 +102,11 @@ def colour_rows(quick: bool) -> list[dict]:
         harness.log(f"{case.name}: {options.parameterization} {options.resolution}, "
                     f"{packs} packs")
         model = factor_material(case.brdf, choice.basis, options).model
+        # The stored layout: Automatic may put packs beside a lobe on io_iso.
         row = {"case": case.name, "settings": "demo" if demo else "default",
-               "parameterization": options.parameterization,
-               "resolution": list(options.resolution), "packs": model.packs, "errors": {},
+               "parameterization": model.parameterization,
+               "resolution": list(model.resolution), "packs": model.packs,
+               "lobe": model.lobe is not None, "errors": {},
                "bytes": {"exact": GPUMaterial(model).nbytes}}
         exact = {ill: model.xyz(pairs.wi, pairs.wo, ill) for ill in targets.ILLUMINANTS}
         for precision in FAST:
