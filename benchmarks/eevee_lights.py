@@ -10,9 +10,9 @@ baseline lit by both suns, as in the packs sweep.
 
 from __future__ import annotations
 
-import math
-
 import bpy
+
+from spectral_materials.blender.eevee import render as eevee_render
 
 from .eevee_report import fmt, to_ms
 
@@ -25,17 +25,8 @@ LAYOUT = "io_iso"
 
 def add_second_sun(scene):
     """Link the second sun (strength 1) into ``scene``; returns its object."""
-    from mathutils import Vector
-
     incidence, azimuth, illuminant = SECOND_SUN
-    data = bpy.data.lights.new("Bench sun 2", "SUN")
-    data.energy = 1.0
-    data.spectral.illuminant = illuminant
-    sun = bpy.data.objects.new("Bench sun 2", data)
-    alpha, phi = math.radians(incidence), math.radians(azimuth)
-    toward = Vector((math.sin(alpha) * math.cos(phi), math.sin(alpha) * math.sin(phi),
-                     math.cos(alpha)))
-    sun.rotation_euler = toward.to_track_quat("Z", "Y").to_euler()
+    sun = eevee_render.new_sun("Bench sun 2", incidence, illuminant, azimuth)
     scene.collection.objects.link(sun)
     return sun
 

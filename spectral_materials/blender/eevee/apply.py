@@ -66,24 +66,31 @@ def _irradiances(scene, material) -> list[tuple]:
 MAX_SPECTRAL_LIGHTS = eevee_nodes.MAX_SPECTRAL_LIGHTS
 
 
-def spectral_lights(scene, material, count: int = 1, key=None) -> list:
+def spectral_lights(scene, material, count: int = 1, key=None,
+                    irradiances: list | None = None) -> list:
     """The light objects the node group evaluates spectrally: ``key`` (default: the
     brightest at the material's objects), then the next brightest, ``count`` in all
-    (fewer if fewer lights reach the material)."""
+    (fewer if fewer lights reach the material). ``irradiances``: :func:`_irradiances`
+    when the caller has it already."""
     if not 1 <= int(count) <= MAX_SPECTRAL_LIGHTS:
         raise EEVEEError(f"Material '{material.name}': spectral lights must be 1 to "
                          f"{MAX_SPECTRAL_LIGHTS}, got {count}")
-    key = key or key_light(scene, material)
-    others = sorted(((irradiance, obj.name, obj) for obj, _, irradiance
-                     in _irradiances(scene, material) if obj != key and irradiance > 0),
-                    key=lambda item: (-item[0], item[1]))
+    if irradiances is None:
+        irradiances = _irradiances(scene, material)
+    key = key or _brightest(scene, material, irradiances)
+    others = sorted(((irradiance, obj.name, obj) for obj, _, irradiance in irradiances
+                     if obj != key and irradiance > 0), key=lambda item: (-item[0], item[1]))
     return [key] + [obj for _, _, obj in others[: int(count) - 1]]
 
 
 def key_light(scene, material):
     """The light object that brings the most irradiance to the material's objects."""
+    return _brightest(scene, material, _irradiances(scene, material))
+
+
+def _brightest(scene, material, irradiances: list):
     best, best_e = None, 0.0
-    for obj, _, irradiance in _irradiances(scene, material):
+    for obj, _, irradiance in irradiances:
         if irradiance > best_e:
             best, best_e = obj, irradiance
     if best is None:
@@ -170,29 +177,31 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = 1,
     if material.spectral.result.image is None:
         raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
     model = storage.load_factored(material)
-    chosen = spectral_lights(scene, material, lights, light_object)
+    irradiances = _irradiances(scene, material)
+    chosen = spectral_lights(scene, material, lights, light_object, irradiances)
+    spectral = {obj.name: light for obj, light, _ in irradiances}
+    for obj in chosen:              # a key light passed in need not be one drawn here
+        spectral.setdefault(obj.name, scene_lights.spectral_light(obj))
     light_object = chosen[0]
-    light = scene_lights.spectral_light(light_object)
+    light = spectral[light_object.name]
     white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
     to_rgb = prefilter.scene_linear_matrix(white, working_space())
     # The Principled BSDF is what the other lights see: fitted under their spectrum.
     fill = prefilter.fill_light([(other, irradiance) for obj, other, irradiance
-                                 in _irradiances(scene, material) if obj not in chosen],
-                                sources.WAVELENGTHS)
+                                 in irradiances if obj not in chosen], sources.WAVELENGTHS)
     fit = prefilter.fit_principled(model, fill or light, to_rgb)
     objects = _objects_using(scene, material)
     use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
     image = material.spectral.result.image
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
-    keys = []
-    for obj in chosen:
-        spectral = scene_lights.spectral_light(obj)
-        keys.append(eevee_nodes.KeyLight(
-            obj.name, obj.data.type, prefilter.key_light_rgb_weights(model, spectral, to_rgb),
-            fit, prefilter.key_light_lobe_rgb_weights(model, spectral, to_rgb)))
+    keys = [eevee_nodes.KeyLight(
+        obj.name, obj.data.type,
+        prefilter.key_light_rgb_weights(model, spectral[obj.name], to_rgb),
+        prefilter.key_light_lobe_rgb_weights(model, spectral[obj.name], to_rgb))
+        for obj in chosen]
     # Built under a scratch name and checked before anything of the material changes.
     scratch_name = eevee_nodes.group_name(material) + " (building)"
-    group = eevee_nodes.build_group(material, model, image, keys, use_uv_tangent=use_uv,
+    group = eevee_nodes.build_group(material, model, image, keys, fit, use_uv_tangent=use_uv,
                                     name=scratch_name)
     _check_uniform_block(material, model, group, len(chosen))
     remove_eevee(material, scene)                # re-applying replaces the previous nodes

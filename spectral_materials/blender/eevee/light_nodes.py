@@ -16,14 +16,13 @@ import numpy as np
 
 @dataclass
 class KeyLight:
-    """What the group needs of the key light; position/direction and strength are driven."""
+    """What the group needs of one spectral light; its position or direction and its
+    strength are driven from the light object."""
 
     object_name: str
     kind: str                     # SUN, POINT, SPOT, AREA
     weights: np.ndarray           # (terms, 3) RGB per unit irradiance (core.prefilter)
-    fit: dict                     # core.prefilter.fit_principled: base_color, roughness, …
     lobe_weights: np.ndarray | None = None   # (2, 3) the analytic lobe's, if any
-
 
 
 def _key_light_drivers(g, key: KeyLight, column: int):

@@ -306,14 +306,14 @@ def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
         group.links.new(node.outputs[0], output.inputs[socket])
 
 
-def build_group(material, model: FactoredBRDF, image, key: KeyLight | list[KeyLight], *,
+def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fit: dict, *,
                 use_uv_tangent: bool = False, name: str | None = None):
     """(Re)write the node group ``name`` (default: the material's); returns it.
 
-    ``key``: the spectral lights, the key light first (its ``fit`` feeds the Principled
-    outputs); each gets its own incidence, lookups, packs and lobe frames, summed into
-    the ``Spectral lights`` output. Raises ValueError for what the EEVEE path cannot
-    reconstruct.
+    ``lights``: the spectral lights, the key light first; each gets its own incidence,
+    lookups, packs and lobe frames, summed into the ``Spectral lights`` output. ``fit``
+    (``core.prefilter.fit_principled``) feeds the Principled outputs. Raises ValueError
+    for what the EEVEE path cannot reconstruct.
     """
     parameterization = model.grid.parameterization.name
     if parameterization not in SUPPORTED:
@@ -322,7 +322,6 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight | list[KeyLi
                          "refactor with one of them")
     if model.form != "cp":
         raise ValueError(f"Material '{material.name}': only CP factor packs have an EEVEE path")
-    lights = list(key) if isinstance(key, list | tuple) else [key]
     if not lights:
         raise ValueError(f"Material '{material.name}': the EEVEE path needs a spectral light")
     if model.lobe is not None and any(light.lobe_weights is None for light in lights):
@@ -341,7 +340,7 @@ def build_group(material, model: FactoredBRDF, image, key: KeyLight | list[KeyLi
     g.begin("Other lights: Lambert + GGX fitted under their spectrum")
     output = g.node("NodeGroupOutput", base + 35)
     group.links.new(total, output.inputs["Spectral lights"])
-    _fitted_outputs(g, group, output, lights[0].fit, base + 23)
+    _fitted_outputs(g, group, output, fit, base + 23)
     return group
 
 

@@ -90,20 +90,28 @@ def _add_sphere(scratch: _Scratch, model):
     return sphere, material
 
 
-def _add_sun(scratch: _Scratch, incidence_deg: float, illuminant: str,
-             azimuth_deg: float = 0.0, name: str = "SM EEVEE sun"):
-    """A sun of strength 1 in ``illuminant`` toward (sin α cos φ, sin α sin φ, cos α)."""
+def new_sun(name: str, incidence_deg: float, illuminant: str, azimuth_deg: float = 0.0):
+    """A sun object (not linked to a scene) of strength 1 in ``illuminant``, toward
+    (sin α cos φ, sin α sin φ, cos α)."""
     from mathutils import Vector
 
-    light_data = scratch.add("lights", bpy.data.lights.new(name, "SUN"))
+    light_data = bpy.data.lights.new(name, "SUN")
     light_data.energy = 1.0
     light_data.spectral.illuminant = illuminant
-    sun = scratch.add("objects", bpy.data.objects.new(name, light_data))
+    sun = bpy.data.objects.new(name, light_data)
     alpha, phi = math.radians(float(incidence_deg)), math.radians(float(azimuth_deg))
     toward = Vector((math.sin(alpha) * math.cos(phi), math.sin(alpha) * math.sin(phi),
                      math.cos(alpha)))
     sun.rotation_euler = toward.to_track_quat("Z", "Y").to_euler()
     return sun
+
+
+def _add_sun(scratch: _Scratch, incidence_deg: float, illuminant: str,
+             azimuth_deg: float = 0.0, name: str = "SM EEVEE sun"):
+    """:func:`new_sun`, removed with ``scratch``."""
+    sun = new_sun(name, incidence_deg, illuminant, azimuth_deg)
+    scratch.add("lights", sun.data)
+    return scratch.add("objects", sun)
 
 
 def _add_sun_and_camera(scratch: _Scratch, incidence_deg: float, illuminant: str):

@@ -100,17 +100,10 @@ class FactoredBRDF:
         if scale is not None:
             out *= scale[:, None]
         if self.lobe is not None:
-            out += self.lobe_coefficients(wi, wo)
+            out += self.lobe.coefficients(wi, wo, self.cosine_weighted)
         lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
         out[~lit] = 0.0
         return out
-
-    def lobe_coefficients(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """(N, S): the lobe's part of :meth:`coefficients` (cosine-weighted as the packs)."""
-        terms = self.lobe.angular(wi, wo)
-        if self.cosine_weighted:
-            terms = terms * np.clip(np.asarray(wi)[:, 2:3], 0.0, None)
-        return _contract(terms, self.lobe.spectral)
 
     def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
         """(N, R): per term, the product over the axes of each factor interpolated at

@@ -147,6 +147,11 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                              models=list(models) if options.target_de94 is None else [final])
 
 
+def _wavelengths(basis: LinearModelBasis | None) -> np.ndarray:
+    """The wavelengths the job's tables use: the basis's, or the 5 nm reference."""
+    return spectra.WAVELENGTHS_REFERENCE if basis is None else basis.wavelengths
+
+
 def choose_lobe(brdf, basis: LinearModelBasis | None, options: FactorOptions,
                 callback: ProgressCallback | None = None
                 ) -> tuple[SpecularLobe | None, dict]:
@@ -163,7 +168,7 @@ def choose_lobe(brdf, basis: LinearModelBasis | None, options: FactorOptions,
     if options.lobe == "off":
         return None, {"lobe": "off"}
     family = LOBE_FAMILIES[0] if options.lobe == "auto" else options.lobe
-    wavelengths = spectra.WAVELENGTHS_REFERENCE if basis is None else basis.wavelengths
+    wavelengths = _wavelengths(basis)
     isotropic = bool(options.isotropic) or str(options.parameterization).endswith("_iso")
     fit = fit_lobe(brdf, wavelengths, basis, isotropic=isotropic, family=family,
                    callback=callback)
@@ -199,7 +204,7 @@ def residual_layout(brdf, lobe: SpecularLobe, basis: LinearModelBasis | None,
     measured into ``figures``."""
     if not options.automatic or options.isotropic or options.parameterization != "io":
         return options
-    wavelengths = spectra.WAVELENGTHS_REFERENCE if basis is None else basis.wavelengths
+    wavelengths = _wavelengths(basis)
     anisotropy = residual_anisotropy(brdf, lobe, wavelengths,
                                      None if basis is None else basis.vectors)
     figures["residual_anisotropy"] = anisotropy

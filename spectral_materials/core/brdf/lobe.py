@@ -44,6 +44,7 @@ from scipy.optimize import minimize
 
 from ..colour.basis import LinearModelBasis
 from ..progress import ProgressCallback, report
+from .metrics import uniform_hemisphere
 
 #: Lobe families a model can carry (GLSL ``SM_LOBE_*`` codes are their indices + 1).
 LOBE_FAMILIES = ("ashikhmin_shirley",)
@@ -101,6 +102,18 @@ class SpecularLobe:
     def angular(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """(N, 2): ``a·(1 − s)`` and ``a·s`` at unit direction pairs (the BRDF, no cosine)."""
         return lobe_terms(wi, wo, self.nu, self.nv)
+
+    def coefficients(self, wi: np.ndarray, wo: np.ndarray, cosine_weighted: bool
+                     ) -> np.ndarray:
+        """(N, S) on the spectral axis: the lobe ``f`` (times cosθi when
+        ``cosine_weighted``). The two terms are summed in a fixed order, so a model
+        evaluates bit-identically from one process to the next."""
+        terms = self.angular(wi, wo)
+        if cosine_weighted:
+            terms = terms * np.clip(np.asarray(wi, np.float64).reshape(-1, 3)[:, 2:3], 0.0,
+                                    None)
+        spectral = np.asarray(self.spectral, dtype=np.float64)
+        return 0.0 + terms[:, :1] * spectral[None, :, 0] + terms[:, 1:] * spectral[None, :, 1]
 
     def on_wavelengths(self, basis: np.ndarray | None) -> np.ndarray:
         """(L, 2) spectra at the model's wavelengths (``basis`` Ψ (L, m) or None)."""
@@ -167,15 +180,9 @@ def fit_pairs(count: int = FIT_PAIRS, seed: int = FIT_SEED) -> tuple[np.ndarray,
     direction (where the lobe is), both directions above the horizon."""
     rng = np.random.default_rng(seed)
     half = count // 2
-
-    def hemisphere(n):
-        z = rng.uniform(0.0, 1.0, n)
-        phi = rng.uniform(0.0, 2.0 * np.pi, n)
-        r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
-        return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
-
-    wi, wo = hemisphere(count), hemisphere(count)
-    mirror = wi[half:] * np.array([-1.0, -1.0, 1.0]) + 0.2 * hemisphere(count - half)
+    wi, wo = uniform_hemisphere(rng, count), uniform_hemisphere(rng, count)
+    mirror = wi[half:] * np.array([-1.0, -1.0, 1.0]) + 0.2 * uniform_hemisphere(rng,
+                                                                                 count - half)
     mirror[:, 2] = np.abs(mirror[:, 2])
     wo[half:] = mirror / np.linalg.norm(mirror, axis=1)[:, None]
     return wi, wo

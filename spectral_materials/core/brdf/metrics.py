@@ -21,18 +21,20 @@ RANDOM_PAIRS = 20_000
 RANDOM_PAIRS_SEED = 20100517
 
 
+def uniform_hemisphere(rng: np.random.Generator, n: int) -> np.ndarray:
+    """``n`` unit directions (n, 3) uniform in solid angle on the upper hemisphere, drawn
+    from ``rng`` (z, then φ)."""
+    z = rng.uniform(0.0, 1.0, n)
+    phi = rng.uniform(0.0, 2.0 * np.pi, n)
+    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
 def random_direction_pairs(count: int = RANDOM_PAIRS, seed: int = RANDOM_PAIRS_SEED
                            ) -> tuple[np.ndarray, np.ndarray]:
     """``count`` (wi, wo) pairs, each uniform in solid angle on the upper hemisphere."""
     rng = np.random.default_rng(seed)
-
-    def hemisphere(n):
-        z = rng.uniform(0.0, 1.0, n)
-        phi = rng.uniform(0.0, 2.0 * np.pi, n)
-        r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
-        return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
-
-    return hemisphere(count), hemisphere(count)
+    return uniform_hemisphere(rng, count), uniform_hemisphere(rng, count)
 
 
 @dataclass

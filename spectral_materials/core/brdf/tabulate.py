@@ -148,8 +148,7 @@ class Table:
             if not self.cosine_weighted:
                 values = values * np.clip(wi[sl, 2:3], 0.0, None)
             if self.lobe is not None:
-                values = values + (self.lobe.angular(wi[sl], wo[sl]) * np.clip(
-                    wi[sl, 2:3], 0.0, None)) @ np.asarray(self.lobe.spectral, np.float64).T
+                values = values + self.lobe.coefficients(wi[sl], wo[sl], cosine_weighted=True)
             lit = (wi[sl, 2] > 0) & (wo[sl, 2] > 0)
             out[sl] = (values * lit[:, None]) @ weights
         return out
