@@ -47,7 +47,6 @@ from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.offscreen import Target
 from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
 from spectral_materials.blender.viewport import draw
-from spectral_materials.core.prt.albedo import packed_layer_count
 
 from . import harness
 from .harness import log
@@ -227,53 +226,66 @@ def headline(bench: FrameBench, scene, obj, main_rays: int, args) -> dict:
            **bench.measure(args.frames * 2, args.reps * 2)}
     log(f"  headline bands {MAIN_BANDS} m {MAIN_BASIS}: {row['ms']:.1f} ms/frame, "
         f"RGB {row['rgb_ms']:.1f} ms, spectral/RGB {row['ratio']:.2f}")
-    # The same with the packed R̃ layers (the object's Albedo basis off), and the basis's
-    # colour error against them.
-    obj.spectral_prt.albedo_basis = False
+    # The same with each other albedo form in the same run, and every form's colours
+    # against the exact layers'.
+    row["albedo"] = {"AUTO": _drawn_form(obj)}
     try:
-        layers = bench.measure(args.frames * 2, args.reps * 2)
+        for form in ("HALF", "BASIS", "EXACT"):
+            obj.spectral_prt.albedo_texture = form
+            timed = bench.measure(args.frames * 2, args.reps * 2)
+            row["albedo"][form] = {**_drawn_form(obj), **{k: timed[k] for k in (
+                "ms", "rgb_ms", "ratio", "paired")}}
+            log(f"  albedo {form}: spectral/RGB {timed['ratio']:.2f}")
     finally:
-        obj.spectral_prt.albedo_basis = True
-    row["layers"] = {k: layers[k] for k in ("ms", "rgb_ms", "ratio", "paired")}
-    row["albedo_basis"] = albedo_basis_error(bench, scene, obj)
-    log(f"  with the packed layers: spectral/RGB {layers['ratio']:.2f}; the albedo basis "
-        f"({row['albedo_basis']['rank']} weights) against them: ΔE94 max "
-        f"{max(e['max'] for e in row['albedo_basis']['delta_e94'].values()):.4f}")
+        obj.spectral_prt.albedo_texture = "AUTO"
+    for form, errors in albedo_form_errors(bench, scene, obj).items():
+        row["albedo"][form]["delta_e94"] = errors
+        log(f"  albedo {form} against the exact layers: ΔE94 max "
+            f"{max(e['max'] for e in errors.values()):.4f}")
     return row
 
 
-def albedo_basis_error(bench: FrameBench, scene, obj) -> dict:
-    """ΔE94 of the drawn image (XYZ output, covered pixels) with the albedo's texture basis
-    against the packed R̃ layers, per illuminant, white = the environment's. llvmpipe
-    filters the basis's weights with float weights; a GPU's 8-bit filter weights add to
-    this (``albedo.sample_layers(..., weight_bits=8)``)."""
+def _drawn_form(obj) -> dict:
+    """What the object's albedo texture holds as drawn last (``core.prt.albedo_forms``)."""
+    drawn = prt_gpu._OBJECTS[obj.name]["albedo_drawn"]
+    out = {"form": drawn.form, "texture_layers": int(drawn.texels().shape[0]),
+           "texel_bytes": 8 if drawn.texture_format == "RGBA16F" else 16,
+           "texel_delta_e94": drawn.delta_e94}
+    if drawn.basis is not None:
+        out.update(rank=drawn.basis.rank, value_error=drawn.basis.error)
+    return out
+
+
+def albedo_form_errors(bench: FrameBench, scene, obj) -> dict:
+    """ΔE94 of the drawn image (XYZ output, covered pixels) with the half-float layers and
+    with the basis against the exact layers, per illuminant, white = the environment's.
+    llvmpipe filters with float weights; a GPU's 8-bit filter weights add to this
+    (``albedo.sample_layers(..., weight_bits=8)``)."""
     from spectral_materials.core.colour.pipeline import delta_e94
 
     env = scene.spectral.environment
     illuminant = env.illuminant
-    errors = {}
+    errors = {"HALF": {}, "BASIS": {}}
     try:
         for ill in ILLUMINANTS:
             env.illuminant = ill
             images = {}
-            for use in (True, False):
-                obj.spectral_prt.albedo_basis = use
+            for form in ("EXACT", "HALF", "BASIS"):
+                obj.spectral_prt.albedo_texture = form
                 bench.frame(False, output="XYZ")
-                images[use] = bench.target.read()
-                if use:
-                    basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
-            covered = images[False][..., 3] > 0
-            de = delta_e94(images[False][covered, :3].astype(np.float64),
-                           images[True][covered, :3].astype(np.float64),
-                           prt.environment_white_xyz(scene))
-            errors[ill] = {"mean": float(de.mean()), "p95": float(np.percentile(de, 95)),
-                           "max": float(de.max())}
+                images[form] = bench.target.read()
+            covered = images["EXACT"][..., 3] > 0
+            for form in errors:
+                de = delta_e94(images["EXACT"][covered, :3].astype(np.float64),
+                               images[form][covered, :3].astype(np.float64),
+                               prt.environment_white_xyz(scene))
+                errors[form][ill] = {"mean": float(de.mean()),
+                                     "p95": float(np.percentile(de, 95)),
+                                     "max": float(de.max())}
     finally:
         env.illuminant = illuminant
-        obj.spectral_prt.albedo_basis = True
-    return {"rank": basis.rank, "layers": basis.weight_layers,
-            "packed_layers": packed_layer_count(MAIN_BASIS),
-            "value_error": basis.error, "delta_e94": errors}
+        obj.spectral_prt.albedo_texture = "AUTO"
+    return errors
 
 
 def settings(args, grids: tuple, main_rays: int, env, mesh_info: dict, obj) -> dict:

@@ -28,6 +28,7 @@ from spectral_materials.blender.gpu import shaders
 from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.offscreen import Target
 from spectral_materials.blender.prt import drawer as prt_gpu, scene as prt
+from spectral_materials.core.prt import albedo_forms
 from spectral_materials.core.prt.albedo import packed_layer_count
 
 from . import harness
@@ -46,7 +47,7 @@ PACKED_LOOP_START = "  for (int g = 0; g < SM_PRT_VEC4; g++) {"
 @contextlib.contextmanager
 def control_path():
     """Draw with the unpacked albedo and :data:`CONTROL_LOOP` inside the block."""
-    source, pack = prt_gpu.glsl_source, prt_gpu.layers_to_rgba
+    source, pack = prt_gpu.glsl_source, albedo_forms.layers_to_rgba
     fragment = source("prt/prt_frag.glsl")
     start = fragment.index(PACKED_LOOP_START)
     end = fragment.index("#  endif", start)
@@ -54,11 +55,11 @@ def control_path():
     shaders.clear_cache()
     prt_gpu._OBJECTS.clear()
     prt_gpu.glsl_source = lambda name: patched if name == "prt/prt_frag.glsl" else source(name)
-    prt_gpu.layers_to_rgba = lambda layers: layers          # array_texture pads to RGBA
+    albedo_forms.layers_to_rgba = lambda layers: layers     # array_texture pads to RGBA
     try:
         yield
     finally:
-        prt_gpu.glsl_source, prt_gpu.layers_to_rgba = source, pack
+        prt_gpu.glsl_source, albedo_forms.layers_to_rgba = source, pack
         shaders.clear_cache()
         prt_gpu._OBJECTS.clear()
 
@@ -80,6 +81,8 @@ def run(args) -> dict:
     env = scene.spectral.environment
     env.bands, env.basis_size = BANDS, BASIS
     obj.spectral_prt.rays = RAYS
+    # Both paths filter the float32 layers by hand (the packing's own comparison).
+    obj.spectral_prt.albedo_texture = "EXACT"
     prt.bake_prt(obj, scene)
     with Target(SIZE, SIZE) as target:
         bench = FrameBench(scene, obj, target)

@@ -314,24 +314,34 @@ def _bake_and_frames(results: dict) -> list[str]:
     ]
 
 
-def _albedo_basis_lines(h: dict) -> list[str]:
-    """The albedo's texture basis (core/prt/albedo_basis.py) against the packed layers."""
-    if "albedo_basis" not in h:
+_FORM_NAMES = {"HALF": "half floats", "BASIS": "basis", "EXACT": "exact layers"}
+
+
+def _albedo_form_lines(h: dict) -> list[str]:
+    """The albedo texture's forms (core/prt/albedo_forms.py) timed and compared in the
+    same run."""
+    if "albedo" not in h:
         return []
-    b, layers = h["albedo_basis"], h["layers"]
-    errors = "; ".join(f"{ill} {e['mean']:.4f} / {e['p95']:.4f} / {e['max']:.4f}"
-                       for ill, e in b["delta_e94"].items())
-    return [
-        f"The spectral frames draw the chart's albedo as {b['rank']} weights per texel in "
-        f"{b['layers']} RGBA layers (the object's *Albedo basis*, the default), where the "
-        f"packed R̃ layers take {b['packed_layers']}: {b['layers']} filtered fetches and "
-        f"{3 * b['rank'] * h['basis']} multiply-adds per pixel instead of "
-        f"{4 * b['packed_layers']} texel fetches. With the packed layers, in the same run, "
-        f"spectral / RGB is {layers['ratio']:.2f} ({layers['ms']:.1f} ms): on llvmpipe the "
-        "multiply-adds cost more than the fetches save, on a GPU the reverse "
-        "(docs/bench_gpu.md). The basis's largest value error is "
-        f"{b['value_error']:.1e} of the largest R̃; its image against the packed layers' "
-        f"(ΔE94 mean / p95 / max over the covered pixels): {errors}.", ""]
+    forms = h["albedo"]
+    lines = [
+        f"The headline draws the albedo as *Automatic* chose: **{forms['AUTO']['form']}**. "
+        "Each form in the same run (frame time against RGB PRT on llvmpipe; colours of the "
+        "drawn image against the exact layers' image, ΔE94 mean / p95 / max over the "
+        "covered pixels):", "",
+        "| albedo texture | layers × bytes a texel | spectral / RGB | "
+        + " | ".join(f"ΔE94 {ill}" for ill in forms["HALF"].get("delta_e94", {})) + " |",
+        "|---|---|---|" + "---|" * len(forms["HALF"].get("delta_e94", {}))]
+    for form in ("HALF", "BASIS", "EXACT"):
+        f = forms[form]
+        what = _FORM_NAMES[form] + (f" ({f['rank']} weights)" if "rank" in f else "")
+        errors = [f"{e['mean']:.4f} / {e['p95']:.4f} / {e['max']:.4f}"
+                  for e in f.get("delta_e94", {}).values()] or \
+            ["0 (the reference)"] * len(forms["HALF"].get("delta_e94", {}))
+        lines.append(f"| {what} | {f['texture_layers']} × {f['texel_bytes']} | "
+                     f"{f['ratio']:.2f} | " + " | ".join(errors) + " |")
+    lines += ["", "On llvmpipe, a CPU rasteriser, the ranking is not a GPU's: "
+              "docs/bench_gpu.md has the NVIDIA H200's.", ""]
+    return lines
 
 
 def _rgb_and_headline(results: dict, t: dict) -> list[str]:
@@ -355,7 +365,7 @@ def _rgb_and_headline(results: dict, t: dict) -> list[str]:
         f"Spectral PRT costs **{h['ratio']:.2f}×** the frame time of RGB PRT here "
         f"(the spectral PRT paper measured {PAPER_RATIO[0]:g}–{PAPER_RATIO[1]:g}×; the goal "
         f"is ≤ {GOAL_RATIO:g}×: this run {goal} it).", "",
-        *_albedo_basis_lines(h),
+        *_albedo_form_lines(h),
         f"By SH bands (rays {main['rays']}, m = {main['basis']}):", "",
         *t["rgb"], "",
     ]

@@ -39,7 +39,7 @@ def test_the_adapted_exporter_finds_the_precision_and_prt_names():
 
     assert callable(material_binder) and set(FAST) == {"unorm16", "unorm16_filtered",
                                                         "half_filtered"}
-    assert "albedo_basis" in bpy_prt_properties()
+    assert "albedo_texture" in bpy_prt_properties()
 
 
 def bpy_prt_properties() -> set[str]:

@@ -862,22 +862,25 @@ def export_prt(store: Store) -> None:
                 obj.spectral_prt.albedo_kind = "IMAGE"
                 obj.spectral_prt.image = albedo_image()
             prefix = "prt" if albedo == "chart" else "prt_image"
-            # Spectral with the albedo's texture basis (the default), with the packed R̃
-            # layers (the object's Albedo basis off), and RGB PRT.
-            for rgb, albedo_basis in ((False, True), (False, False), (True, True)):
-                obj.spectral_prt.albedo_basis = albedo_basis
+            # Spectral with the albedo as Automatic draws it (the default), as the basis
+            # and as the exact R̃ layers (the object's Albedo texture), and RGB PRT.
+            for rgb, form in ((False, "AUTO"), (False, "BASIS"), (False, "EXACT"),
+                              (True, "AUTO")):
+                obj.spectral_prt.albedo_texture = form
                 bench.frame(rgb)                       # switching modes rebuilds textures
                 start = len(READS)
                 covered = bench.covered(rgb)           # a frame and the project's read-back
                 (read,) = reads_since(start)
                 name = f"{prefix}_rgb" if rgb else f"{prefix}_spectral_m{bp.MAIN_BASIS}" + \
-                    ("" if albedo_basis else "_layers")
-                basis = prt_gpu._OBJECTS[obj.name].get("albedo_basis")
+                    {"AUTO": "", "BASIS": "_basis", "EXACT": "_layers"}[form]
+                drawn = prt_gpu._OBJECTS[obj.name].get("albedo_drawn")
+                basis = drawn.basis if drawn is not None else None
                 export_event(store, name, EVENTS[read["event"]], read["image"], {
                     "family": "prt", "group": "prt",
                     "ratio_to": None if rgb else f"{prefix}_rgb",
                     "params": {"bands": bp.MAIN_BANDS, "basis": 3 if rgb else bp.MAIN_BASIS,
                                "rgb": rgb, "albedo": albedo,
+                               "albedo_form": drawn.form if drawn is not None else None,
                                "albedo_basis_rank": basis.rank if basis and not rgb else None,
                                "rays": rays, "illuminant": bp.ILLUMINANTS[0],
                                "sky": "overcast", "window": bp.DEFAULT_WINDOW, **mesh_info},

@@ -3,10 +3,12 @@ changes) added to an export's manifest as ``<case>__<variant>``, for run_gpu.py 
 beside the unchanged case in the same run. What each costs on a GPU decides what the
 shaders adopt (issue 19); the variants' images are not meant to be right.
 
-Two sets: ``explored`` patches the shaders of commit b30c25a (the albedo basis with G
+Three sets: ``explored`` patches the shaders of commit b30c25a (the albedo basis with G
 interpolated, BTF lights outermost), whose timings on an H200 are
-docs/gpu/h200_explored_*.json and led to today's shaders; ``current`` patches today's
-(the loop orders they replaced, timed against them in the same run).
+docs/gpu/h200_explored_*.json; ``prt_paths`` those of commit 5223be0 (where the PRT albedo
+is filtered, and in what format), timed in docs/gpu/h200_prt_paths_*.json; both led to
+today's shaders. ``current`` patches today's (the loop orders they replaced, timed
+against them in the same run).
 
     python benchmarks/gpu_replay/patch_cases.py .replay/data [--set current]
 """
@@ -169,7 +171,27 @@ CURRENT: dict[str, tuple[str, dict, dict]] = {
     f"lights_outer_{case}": (case, {"fragment": [(
         "#  if SM_BTF_KIND == SM_BTF_KIND_RFNL\n", "#  if 0\n")]}, {})
     for case in ("btf_rfnl_l1", "btf_rfnl_l4")}
-SETS = {"explored": EXPLORED, "current": CURRENT}
+#: On the shaders of commit 5223be0 (the albedo basis the default): the packed R̃ layers
+#: filtered by the texture unit (one fetch per layer, 3m/4 of them) instead of by hand
+#: (four), as RGBA32F and RGBA16F; the basis's weights as RGBA16F; the chart's basis cut to
+#: 8 weights (the colour bound needs 12); RGB PRT filtered alike. Their H200 replays,
+#: docs/gpu/h200_prt_paths_*.json, led to the half-float layers (core/prt/albedo_forms.py).
+PRT_PATHS: dict[str, tuple[str, dict, dict]] = {}
+_LAYER_HW = [(f"sm_albedo_filtered(c0, w, 3 * g{k})",
+              f"textureLod(albedo_tex, vec3(tex_uv, float(3 * g{k})), 0.0)")
+             for k in ("", " + 1", " + 2")]
+_REPEAT = {"albedo_tex": {"linear": True, "repeat": True}}
+_REPEAT_HALF = {"albedo_tex": {"linear": True, "repeat": True, "format": "RGBA16F"}}
+for _case in ("prt_spectral_m8_layers", "prt_image_spectral_m8_layers"):
+    PRT_PATHS[f"layers_hw32_{_case}"] = (_case, {"fragment": _LAYER_HW}, _REPEAT)
+    PRT_PATHS[f"layers_hw16_{_case}"] = (_case, {"fragment": _LAYER_HW}, _REPEAT_HALF)
+PRT_PATHS["basis_hw16"] = ("prt_spectral_m8", {}, {"albedo_tex": {"format": "RGBA16F"}})
+PRT_PATHS["basis_two_layers"] = ("prt_spectral_m8", {"fragment": _TWO_LAYERS}, {})
+for _case in ("prt_rgb", "prt_image_rgb"):
+    PRT_PATHS[f"rgb_hw32_{_case}"] = (_case, {"fragment": [(
+        "vec3 albedo = sm_albedo_filtered(c0, w, 0).rgb;",
+        "vec3 albedo = textureLod(albedo_tex, vec3(tex_uv, 0.0), 0.0).rgb;")]}, _REPEAT)
+SETS = {"explored": EXPLORED, "prt_paths": PRT_PATHS, "current": CURRENT}
 
 
 def _replace_btf_body(text: str, new: str) -> str:

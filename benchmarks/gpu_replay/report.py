@@ -20,7 +20,7 @@ from pathlib import Path
 
 #: Issue 19's table, replayed on an NVIDIA H100 before this work: (row, ms, × baseline),
 #: quoted for the before/after comparison (another card: only the ratios carry over).
-#: Its spectral PRT row drew the then albedo layers, today's default is the albedo basis.
+#: Its spectral PRT row drew the then albedo layers; today's default is Automatic.
 ISSUE_H100 = {
     "draw_baseline_l1": ("baseline, 1 light", 0.431, 1.0),
     "draw_io_iso_precontract_p1_l1": ("io_iso precontracted, 1 pack", 0.93, 2.2),
@@ -81,6 +81,10 @@ def precision_table(cases: dict) -> list[str]:
     return lines
 
 
+_FORMS = {"half": "half-float R̃ layers, + the first's rounding error",
+          "basis": "albedo basis", "exact": "exact R̃ layers"}
+
+
 def prt_table(cases: dict) -> list[str]:
     lines = ["| albedo | drawn as | ms / frame | × RGB PRT (same run) |", "|---|---|---|---|"]
     for prefix, albedo in (("prt", "ColorChecker chart (24 spectra)"),
@@ -88,13 +92,18 @@ def prt_table(cases: dict) -> list[str]:
         rgb = cases.get(f"{prefix}_rgb")
         if rgb is None:
             continue
-        for suffix, drawn in (("_rgb", "RGB PRT"), ("_spectral_m8_layers", "packed R̃ layers"),
-                              ("_spectral_m8", "albedo basis")):
+        for suffix, drawn in (("_rgb", "RGB PRT"),
+                              ("_spectral_m8_layers", "exact R̃ layers (filtered by hand)"),
+                              ("_spectral_m8_basis", "albedo basis"),
+                              ("_spectral_m8", "Automatic")):
             c = cases.get(prefix + suffix)
             if c is None:
                 continue
             rank = c["params"].get("albedo_basis_rank")
+            form = c["params"].get("albedo_form")
             label = f"{drawn} ({rank} weights)" if rank else drawn
+            if suffix == "_spectral_m8" and form:
+                label = f"Automatic: {_FORMS.get(form, form)}"
             lines.append(f"| {albedo} | {label} | {_ms(c):.3f} | {_ms(c) / _ms(rgb):.2f} |")
     return lines
 
@@ -135,7 +144,8 @@ def agreement_table(cases: dict) -> list[str]:
     return lines
 
 
-def markdown(results: dict, source: str, explored: list[dict] | None = None) -> list[str]:
+def markdown(results: dict, source: str, explored: list[dict] | None = None,
+             prt_paths: list[dict] | None = None) -> list[str]:
     cases = {c["name"]: c for c in results["cases"]}
     m, e = results["machine"], results["export"]
     return [
@@ -167,6 +177,14 @@ def markdown(results: dict, source: str, explored: list[dict] | None = None) -> 
             "and G formed per pixel (today's shader with `hw32`); `nearest`: no texel-edge "
             "blend; `texel_outer`: BTF texels outermost (today's RFNL shader).", "",
             *explored_table(explored), ""] if explored else []),
+        *(["## PRT albedo paths timed on the way (`patch_cases.py --set prt_paths`)", "",
+            "Text patches of the shaders of commit 5223be0, where the albedo basis was the "
+            "default, each timed beside the unpatched case in the same run: "
+            "`layers_hw32`/`layers_hw16`: the packed R̃ layers filtered by the texture unit "
+            "as RGBA32F/RGBA16F instead of by hand; `basis_hw16`: the basis's weights as "
+            "RGBA16F; `basis_two_layers`: 8 weights; `rgb_hw32`: RGB PRT filtered by the "
+            "texture unit. They led to the half-float layers, Automatic's first choice.", "",
+            *explored_table(prt_paths), ""] if prt_paths else []),
         "## Agreement with the project's llvmpipe read-back", "",
         "Per pixel: max over RGB |GPU − llvmpipe| / max(|llvmpipe|, 1e-4). *Unexplained*: "
         "pixels over 1e-3 that neither move on llvmpipe when the geometry moves by ~1e-3 px "
@@ -188,7 +206,9 @@ def main(argv: list[str] | None = None) -> None:
     explored = args.explored if args.explored is not None else \
         sorted(str(p) for p in Path(args.results).parent.glob("*_explored_*.json"))
     runs = [json.loads(Path(p).read_text()) for p in explored]
-    text = "\n".join(markdown(results, args.results, runs))
+    prt_paths = [json.loads(p.read_text()) for p in
+                 sorted(Path(args.results).parent.glob("*_prt_paths_*.json"))]
+    text = "\n".join(markdown(results, args.results, runs, prt_paths))
     path = Path(args.out) / "bench_gpu.md"
     path.write_text(text)
     print(text)

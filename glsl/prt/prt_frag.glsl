@@ -1,10 +1,13 @@
-/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.albedo_basis.AlbedoBasis, spectral_materials.core.prt.transfer.vertex_xyz */
+/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.albedo_basis.AlbedoBasis, spectral_materials.core.prt.albedo_forms.half_texels, spectral_materials.core.prt.transfer.vertex_xyz */
 /* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
  * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
  * spectral_materials/core/prt/albedo.py sample_layers) so that the Python mirror matches.
  * The 3m values of a texel are packed four to a layer (albedo.layers_to_rgba): value
  * q = 3j + c (coefficient j, channel c) is component q % 4 of layer q / 4, so a pixel
  * filters SM_PRT_LAYERS = ⌈3m/4⌉ layers (4 fetches each) instead of m.
+ * SM_PRT_HALF_LAYERS: the same layers as half floats filtered by the texture unit, one
+ * fetch each, the first layer's rounding error in layer SM_PRT_LAYERS added to it
+ * (core/prt/albedo_forms.py half_texels).
  * SM_PRT_BASIS_LAYERS > 0: the albedo as r weights per texel in a texture basis
  * (core/prt/albedo_basis.py), four to a layer, filtered by the texture unit:
  * XYZ_c = Σ_k w_k(uv) G_kc, so a pixel reads ⌈r/4⌉ texels.
@@ -25,6 +28,17 @@ vec4 sm_albedo_filtered(ivec2 c0, vec4 w, int layer)
   return w.x * sm_albedo_texel(c0, layer) + w.y * sm_albedo_texel(c0 + ivec2(1, 0), layer) +
          w.z * sm_albedo_texel(c0 + ivec2(0, 1), layer) +
          w.w * sm_albedo_texel(c0 + ivec2(1, 1), layer);
+}
+
+/* Layer `layer` of the packed R̃ at this pixel: by the texture unit from the wrap-padded
+ * half layers (at `padded`), else filtered by hand. */
+vec4 sm_albedo_layer(ivec2 c0, vec4 w, vec2 padded, int layer)
+{
+#if SM_PRT_HALF_LAYERS
+  return textureLod(albedo_tex, vec3(padded, float(layer)), 0.0);
+#else
+  return sm_albedo_filtered(c0, w, layer);
+#endif
 }
 
 void main()
@@ -56,14 +70,15 @@ void main()
 #  if SM_PRT_VEC4 > 3
   e[3] = prt_e3;
 #  endif
+  /* Filtered textures have one texel of wrap padding on every side
+   * (core/prt/albedo.py wrap_padded), so filtering near 0 and 1 blends across the wrap as
+   * REPEAT would, with no sampler setting that Blender 4.5 and 5.0 lack. */
+  vec2 padded = (fract(tex_uv) * vec2(sm.sizes.yz) + 1.0) / vec2(sm.sizes.yz + 2);
 #  if SM_PRT_BASIS_LAYERS
   /* G_kc = Σ_j Ê_j M_kjc is formed here from the interpolated Ê rather than interpolated
    * itself: on an NVIDIA H200 three vec4 varyings per layer of weights cost more than
-   * these 3·r·m multiply-adds (docs/bench_gpu.md). The texture unit filters the weights;
-   * each layer has one texel of wrap padding on every side (AlbedoBasis.weights_padded),
-   * so filtering near 0 and 1 blends across the wrap as REPEAT would, with no sampler
-   * setting that Blender 4.5 and 5.0 lack. */
-  vec2 padded = (fract(tex_uv) * vec2(sm.sizes.yz) + 1.0) / vec2(sm.sizes.yz + 2);
+   * these 3·r·m multiply-adds (docs/bench_gpu.md). The texture unit filters the
+   * weights. */
   for (int l = 0; l < SM_PRT_BASIS_LAYERS; l++) {
     vec4 weights = textureLod(albedo_tex, vec3(padded, float(l)), 0.0);
     for (int c = 0; c < 3; c++) {
@@ -85,9 +100,16 @@ void main()
    * by a computed component, which llvmpipe runs 1.5× slower). Layers past the last
    * (m not a multiple of 4) read as 0. */
   for (int g = 0; g < SM_PRT_VEC4; g++) {
-    vec4 l0 = sm_albedo_filtered(c0, w, 3 * g);
-    vec4 l1 = 3 * g + 1 < SM_PRT_LAYERS ? sm_albedo_filtered(c0, w, 3 * g + 1) : vec4(0.0);
-    vec4 l2 = 3 * g + 2 < SM_PRT_LAYERS ? sm_albedo_filtered(c0, w, 3 * g + 2) : vec4(0.0);
+    vec4 l0 = sm_albedo_layer(c0, w, padded, 3 * g);
+#    if SM_PRT_HALF_LAYERS
+    if (g == 0) {
+      l0 += sm_albedo_layer(c0, w, padded, SM_PRT_LAYERS);
+    }
+#    endif
+    vec4 l1 = 3 * g + 1 < SM_PRT_LAYERS ? sm_albedo_layer(c0, w, padded, 3 * g + 1) :
+                                          vec4(0.0);
+    vec4 l2 = 3 * g + 2 < SM_PRT_LAYERS ? sm_albedo_layer(c0, w, padded, 3 * g + 2) :
+                                          vec4(0.0);
     xyz += vec3(dot(e[g], vec4(l0.x, l0.w, l1.z, l2.y)), dot(e[g], vec4(l0.y, l1.x, l1.w, l2.z)),
                 dot(e[g], vec4(l0.z, l1.y, l2.x, l2.w)));
   }

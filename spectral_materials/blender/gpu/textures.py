@@ -19,17 +19,22 @@ def float_texture(texels: np.ndarray):
     return gpu.types.GPUTexture((width, height), format="RGBA32F", data=buffer)
 
 
-def array_texture(layers: np.ndarray, filtered: bool = False):
-    """An RGBA32F 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA;
-    ``filtered``: sampled with linear filtering (else only ``texelFetch`` reads it)."""
+def array_texture(layers: np.ndarray, filtered: bool = False,
+                  texture_format: str = "RGBA32F"):
+    """A 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA; ``filtered``:
+    sampled with linear filtering (else only ``texelFetch`` reads it). For ``RGBA16F`` the
+    values should be exact in half (``core.prt.albedo_forms.half_texels``), so that the
+    upload's conversion cannot round them differently from the mirror."""
     import gpu
 
+    if texture_format not in ("RGBA32F", "RGBA16F"):
+        raise ValueError(f"no array texture of format {texture_format!r}")
     ensure_gpu()
     m, h, w = layers.shape[:3]
     texels = np.zeros((m, h, w, 4), dtype=np.float32)
     texels[..., : layers.shape[3]] = layers
     buffer = gpu.types.Buffer("FLOAT", texels.size, texels.ravel())
-    texture = gpu.types.GPUTexture((w, h), layers=m, format="RGBA32F", data=buffer)
+    texture = gpu.types.GPUTexture((w, h), layers=m, format=texture_format, data=buffer)
     if filtered:
         _filter_linearly(texture)
     return texture

@@ -10,10 +10,11 @@ texels a row), the environment texture (one row per SH coefficient, padded to a
 multiple of 4, ``ceil(m/4)`` texels of spectral coefficients, already turned into the
 object's frame by ``prt.object_rotation`` (a reflection for a mirrored object) and
 divided by the scene's white Y, that of the world frame, as ``prt.vertex_xyz`` is) and
-the albedo texture array (the ``3m`` values of R̃ packed four to a layer, or, with the
-object's *Albedo basis*, ``r`` weights per texel in a basis of the texture's own R̃
-vectors, ``core.prt.albedo_basis``, with the mixing array in the uniform buffer
-``sm_basis``). Each is rebuilt only when its inputs change.
+the albedo texture array in the form the object's *Albedo texture* chooses
+(``core.prt.albedo_forms``): the ``3m`` values of R̃ packed four to a layer as half
+floats filtered by the texture unit, or as ``r`` weights per texel in a basis of the
+texture's own R̃ vectors with the mixing array in the uniform buffer ``sm_basis``, or as
+float32 filtered by hand. Each is rebuilt only when its inputs change.
 
 ``rgb=True`` draws classical RGB PRT (L̃ and the albedo reduced to linear sRGB, one
 layer), the baseline of the frame-time and accuracy comparisons.
@@ -26,8 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.prt import transfer as core_prt
-from ...core.prt.albedo import layers_to_rgba, packed_layer_count
-from ...core.prt.albedo_basis import MAX_RANK, AlbedoBasis, choose_albedo_basis
+from ...core.prt.albedo import packed_layer_count
+from ...core.prt.albedo_basis import MAX_RANK, AlbedoBasis
+from ...core.prt.albedo_forms import DrawnAlbedo, drawn_albedo
 from ..gpu import batches as mesh_batches, shaders
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
 from ..gpu.matrices import set_matrix
@@ -70,6 +72,9 @@ class PRTShaderKey:
     environment_buffer: bool = True
     #: RGBA layers of albedo-basis weights (``core.prt.albedo_basis``); 0: the R̃ layers.
     albedo_basis_layers: int = 0
+    #: The packed R̃ layers as half floats filtered by the texture unit, plus the first
+    #: layer's rounding error (``core.prt.albedo_forms.half_texels``).
+    half_layers: bool = False
 
     @property
     def texels(self) -> int:
@@ -103,6 +108,7 @@ class PRTShaderKey:
                 "SM_PRT_LAYERS": str(self.albedo_layers),
                 "SM_PRT_ENV_BUFFER": "1" if self.environment_buffer else "0",
                 "SM_PRT_BASIS_LAYERS": str(self.albedo_basis_layers),
+                "SM_PRT_HALF_LAYERS": "1" if self.half_layers else "0",
                 **output_defines(PRT_OUTPUTS[self.output])}
 
     def validate(self) -> None:
@@ -119,6 +125,8 @@ class PRTShaderKey:
                                          <= -(-MAX_RANK // 4)):
             raise ValueError(f"no albedo basis of {self.albedo_basis_layers} layers "
                              f"{'for RGB PRT' if self.rgb else ''}")
+        if self.half_layers and (self.rgb or self.albedo_basis_layers):
+            raise ValueError("half-float albedo layers are for the spectral R̃ layers only")
 
 
 def environment_fits(sh_coefficients: int, coefficients: int) -> bool:
@@ -270,30 +278,35 @@ def albedo_basis_texels(basis: AlbedoBasis, coefficients: int) -> np.ndarray:
 
 def albedo_status(obj) -> str:
     """What the object's spectral albedo texture holds, for the panel: '' until it is
-    drawn spectrally with the object's current *Albedo basis* setting."""
+    drawn spectrally with the object's current *Albedo texture* setting."""
     key = _OBJECTS.get(obj.name, {}).get("albedo_key")
-    if key is None or key[1] or key[2] != bool(obj.spectral_prt.albedo_basis):
+    if key is None or key[1] or key[2] != obj.spectral_prt.albedo_texture.lower():
         return ""
     entry = _OBJECTS[obj.name]
     m = entry["coefficients"]
-    basis = entry.get("albedo_basis")
-    if basis is None:
-        return f"Albedo: {3 * m} values per texel in {packed_layer_count(m)} layers"
-    return (f"Albedo: {basis.rank} weights per texel in {basis.weight_layers} layers "
-            f"(of {packed_layer_count(m)}), ΔE94 ≤ {basis.delta_e94:.3f}")
+    drawn: DrawnAlbedo = entry["albedo_drawn"]
+    packed = packed_layer_count(m)
+    if drawn.form == "half":
+        return (f"Albedo: {3 * m} half floats per texel in {packed + 1} layers, "
+                f"ΔE94 ≤ {drawn.delta_e94:.3f}")
+    if drawn.form == "basis":
+        return (f"Albedo: {drawn.basis.rank} weights per texel in "
+                f"{drawn.basis.weight_layers} layers (of {packed}), "
+                f"ΔE94 ≤ {drawn.delta_e94:.3f}")
+    return f"Albedo: {3 * m} values per texel in {packed} layers"
 
 
-def _albedo_basis(entry: dict, layers) -> AlbedoBasis | None:
-    """The drawn basis of the object's layers, kept across RGB/spectral switches (an
-    eigen-decomposition over every texel is not redone per switch)."""
-    kept = entry.get("albedo_basis_of")
-    if kept is not None and kept[0] == layers.key:
+def _drawn_albedo(entry: dict, layers, form: str) -> DrawnAlbedo:
+    """The drawn form of the object's layers, kept across RGB/spectral switches (a colour
+    check over every texel, or an eigen-decomposition, is not redone per switch)."""
+    kept = entry.get("albedo_drawn_of")
+    if kept is not None and kept[0] == (layers.key, form):
         return kept[1]
     # Layers are finite: every source checks its values, a stored image included
     # (state.layers_from_image names it).
-    basis = choose_albedo_basis(layers)
-    entry["albedo_basis_of"] = (layers.key, basis)
-    return basis
+    drawn = drawn_albedo(layers, form)
+    entry["albedo_drawn_of"] = ((layers.key, form), drawn)
+    return drawn
 
 
 def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
@@ -336,24 +349,24 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
         entry["environment_gpu"] = {}
         entry["env_key"] = env_key
     layers = prt.albedo_layers(obj, scene)
-    use_basis = not rgb and bool(obj.spectral_prt.albedo_basis)
-    albedo_key = (layers.key, rgb, use_basis)
+    form = obj.spectral_prt.albedo_texture.lower()
+    albedo_key = (layers.key, rgb, form)
     if entry.get("albedo_key") != albedo_key:
-        basis = _albedo_basis(entry, layers) if use_basis else None
-        entry["albedo_basis"] = basis
         if rgb:
             source = prt.albedo_source(obj)
             data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
-        elif basis is not None:
-            data = basis.weights_padded()
-            entry["albedo_basis_gpu"] = gpu.types.GPUUniformBuf(
-                albedo_basis_texels(basis, layers.layers.shape[0]).tobytes())
+            entry["albedo_drawn"] = None
+            entry["albedo"] = array_texture(data)
+            entry["albedo_size"] = (data.shape[2], data.shape[1])
         else:
-            data = layers_to_rgba(layers.layers)
-        entry["albedo"] = array_texture(data, filtered=basis is not None)
-        # The shader's sizes are the texture's own, less the basis weights' wrap padding.
-        pad = 2 if basis is not None else 0
-        entry["albedo_size"] = (data.shape[2] - pad, data.shape[1] - pad)
+            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form)
+            if drawn.basis is not None:
+                entry["albedo_basis_gpu"] = gpu.types.GPUUniformBuf(
+                    albedo_basis_texels(drawn.basis, layers.layers.shape[0]).tobytes())
+            entry["albedo"] = array_texture(drawn.texels(), filtered=drawn.filtered,
+                                            texture_format=drawn.texture_format)
+            # The shader's sizes are the albedo's own, less any wrap padding.
+            entry["albedo_size"] = (layers.layers.shape[2], layers.layers.shape[1])
         entry["albedo_key"] = albedo_key
     entry["coefficients"] = 3 if rgb else layers.layers.shape[0]
     return entry
@@ -380,10 +393,12 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
             _OBJECTS.pop(obj.name, None)
             continue
         sh_count = entry["arrays"].transfer.shape[1]
-        basis = None if rgb else entry["albedo_basis"]
+        albedo = entry["albedo_drawn"]
+        basis = None if albedo is None else albedo.basis
         key = PRTShaderKey(sh_count, entry["coefficients"], rgb, output,
                            environment_fits(sh_count, entry["coefficients"]),
-                           basis.weight_layers if basis is not None else 0)
+                           basis.weight_layers if basis is not None else 0,
+                           albedo is not None and albedo.form == "half")
         shader = get_shader(key)
         shader.bind()
         params = gpu.types.GPUUniformBuf(params_block(

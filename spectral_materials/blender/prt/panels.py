@@ -81,7 +81,7 @@ class SPECTRAL_PT_prt_object(bpy.types.Panel):
         elif p.albedo_kind == "SPECTRAL_EXR":
             layout.prop(p, "filepath")
         layout.prop(p, "rays")
-        layout.prop(p, "albedo_basis")
+        layout.prop(p, "albedo_texture")
         status = drawer.albedo_status(obj)
         if status:
             layout.label(text=status, icon="TEXTURE")

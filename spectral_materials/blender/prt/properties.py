@@ -118,12 +118,20 @@ class SPECTRAL_PG_prt_object(bpy.types.PropertyGroup):
     rays: IntProperty(name="Rays", default=256, min=1, soft_min=16, soft_max=4096,
                       description="Visibility rays per vertex of the transfer bake (half "
                                   "face away and cost nothing)")
-    albedo_basis: BoolProperty(
-        name="Albedo basis", default=True, update=_redraw,
-        description="Draw the albedo as a few weights per texel in a basis of the "
-                    "texture's own spectra, filtered by the texture unit (exact for RGB "
-                    "images, within ΔE94 0.05 of the layers otherwise): fewer texture "
-                    "reads per pixel on a GPU")
+    albedo_texture: EnumProperty(
+        name="Albedo texture", default="AUTO", update=_redraw,
+        description="How the spectral albedo is stored on the GPU and read per pixel "
+                    "(core/prt/albedo_forms.py)",
+        items=[("AUTO", "Automatic", "The fastest form on a GPU whose colours stay within "
+                "ΔE94 0.05 of the exact layers under D65, FL11 and A: half floats, else the "
+                "basis, else the exact layers"),
+               ("HALF", "Half floats", "The R̃ layers as half floats filtered by the texture "
+                "unit, the first layer's rounding error kept in one more layer"),
+               ("BASIS", "Basis", "A few weights per texel in a basis of the texture's own "
+                "spectra, filtered by the texture unit (exact for RGB images, within ΔE94 "
+                "0.05 otherwise, else the exact layers)"),
+               ("EXACT", "Exact", "The R̃ layers as 32-bit floats filtered by hand: what "
+                "the others are measured against")])
     albedo_image: PointerProperty(type=bpy.types.Image, name="Albedo layers",
                                   description="Stored R̃ layers (albedo × CMF on the PRT "
                                               "basis), one per basis vector, stacked")

@@ -385,6 +385,18 @@ def layers_to_rgba(layers: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(flat.reshape(height, width, count, 4).transpose(2, 0, 1, 3))
 
 
+def wrap_padded(rgba: np.ndarray) -> np.ndarray:
+    """(L, H + 2, W + 2, 4): texels (L, H, W, 4) with one texel of wrap padding on every
+    side (the opposite edge's texels), so that a texture unit filtering with clamped
+    coordinates blends across the wrap exactly as REPEAT does, with no sampler setting
+    (Blender 4.5 and 5.0 have none). The shader maps ``uv`` to
+    ``(fract(uv)·(W, H) + 1) / (W + 2, H + 2)`` (``glsl/prt/prt_frag.glsl``)."""
+    rgba = np.asarray(rgba)
+    if rgba.ndim != 4 or 0 in rgba.shape:
+        raise ValueError(f"texels must be (layers, H, W, 4), got {rgba.shape}")
+    return np.ascontiguousarray(np.pad(rgba, ((0, 0), (1, 1), (1, 1), (0, 0)), mode="wrap"))
+
+
 def rgba_to_layers(packed: np.ndarray, m: int) -> np.ndarray:
     """(m, H, W, 3) from :func:`layers_to_rgba`'s (⌈3m/4⌉, H, W, 4)."""
     packed = np.asarray(packed)

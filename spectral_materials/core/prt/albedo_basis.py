@@ -36,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .albedo import AlbedoLayers, albedo_layers_from_spectra, packed_layer_count
+from .albedo import AlbedoLayers, packed_layer_count, wrap_padded
+from .albedo_colour import COLOUR_BOUND_DE94, layers_colour_error
 
 #: Relative Frobenius error of the truncated layers against the full ones. At m = 8 it
 #: keeps 12 of the ColorChecker chart's 24 values per texel and all 7 dimensions of a
@@ -44,10 +45,6 @@ from .albedo import AlbedoLayers, albedo_layers_from_spectra, packed_layer_count
 DEFAULT_TOLERANCE = 1e-4
 #: Most weights per texel the shader reads (four RGBA layers).
 MAX_RANK = 16
-#: The largest ΔE94 a drawn basis may make against the packed layers, per texel, under
-#: each of :data:`COLOUR_ILLUMINANTS` (factor precision's *Automatic* bound).
-COLOUR_BOUND_DE94 = 0.05
-COLOUR_ILLUMINANTS = ("D65", "FL11", "A")
 _TEXELS_PER_BLOCK = 1 << 16
 
 
@@ -100,12 +97,9 @@ class AlbedoBasis:
                                     .transpose(0, 2, 3, 1))
 
     def weights_padded(self) -> np.ndarray:
-        """(⌈r/4⌉, H + 2, W + 2, 4): :meth:`weights_rgba` with one texel of wrap padding on
-        every side (the opposite edge's texels), so that a texture unit filtering with
-        clamped coordinates blends across the wrap exactly as REPEAT does. The shader maps
-        ``uv`` to ``(fract(uv)·(W, H) + 1) / (W + 2, H + 2)``."""
-        return np.ascontiguousarray(np.pad(self.weights_rgba(),
-                                           ((0, 0), (1, 1), (1, 1), (0, 0)), mode="wrap"))
+        """(⌈r/4⌉, H + 2, W + 2, 4): :meth:`weights_rgba` wrap-padded for the texture unit
+        (:func:`.albedo.wrap_padded`)."""
+        return wrap_padded(self.weights_rgba())
 
 
 @dataclass
@@ -203,31 +197,10 @@ def saves_fetches(basis: AlbedoBasis, coefficients: int) -> bool:
     return basis.rank <= MAX_RANK and basis.weight_layers < packed_layer_count(coefficients)
 
 
-def colour_error(albedo: AlbedoLayers, basis: AlbedoBasis,
-                 illuminants: tuple[str, ...] = COLOUR_ILLUMINANTS) -> float:
-    """Largest ΔE94 over the texels between the albedo lit by each illuminant through its
-    layers and through ``basis``: ``XYZ_c = Σ_j L̂_j R̃_jc`` with ``L̂`` the illuminant on
-    the layers' spectral basis, white = a unit albedo's XYZ under it."""
-    from ..colour.pipeline import delta_e94, illuminant_spd
-
-    wl = albedo.wavelengths
-    psi = np.eye(wl.size) if albedo.basis is None else np.asarray(albedo.basis, np.float64)
-    unit = albedo_layers_from_spectra(np.ones((1, 1, wl.size)), wl, albedo.basis)
-    m, h, w, _ = albedo.layers.shape
-    full = albedo.layers.reshape(m, h * w, 3)
-    drawn = basis.layers().reshape(m, h * w, 3)
-    worst = 0.0
-    for illuminant in illuminants:
-        light = psi.T @ illuminant_spd(illuminant, wl)                     # L̂ (m,)
-        white = light @ unit.layers[:, 0, 0].astype(np.float64)
-        light, white = light / white[1], white / white[1]          # white Y = 1
-        for begin in range(0, h * w, _TEXELS_PER_BLOCK):
-            block = slice(begin, begin + _TEXELS_PER_BLOCK)
-            xyz = np.einsum("j,jtc->tc", light, full[:, block].astype(np.float64))
-            approx = np.einsum("j,jtc->tc", light, drawn[:, block].astype(np.float64))
-            de = delta_e94(xyz, approx, white)
-            worst = max(worst, float(de.max()))
-    return worst
+def colour_error(albedo: AlbedoLayers, basis: AlbedoBasis) -> float:
+    """Largest ΔE94 over the texels between ``albedo``'s layers and the layers ``basis``
+    draws (:func:`.albedo_colour.layers_colour_error`)."""
+    return layers_colour_error(albedo, basis.layers())
 
 
 def choose_albedo_basis(albedo: AlbedoLayers, bound: float = COLOUR_BOUND_DE94,

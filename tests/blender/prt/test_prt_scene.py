@@ -60,22 +60,23 @@ def test_vertex_xyz_against_the_monte_carlo_reference(clean_scene):
         assert np.mean(de) < 1.0 and np.percentile(de, 95) < 3.0, (illuminant, de.mean())
 
 
-@pytest.mark.parametrize("albedo", ["layers", "basis"])
+@pytest.mark.parametrize("albedo", ["EXACT", "BASIS", "HALF"])
 @pytest.mark.parametrize("environment_in", ["buffer", "texture"])
 @pytest.mark.parametrize("basis", [8, 5], ids=["m8", "m5"])
 def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, environment_in,
                                                           albedo, monkeypatch):
     """m = 5 leaves the last group of packed albedo layers partly empty. L̃ comes from the
     uniform buffer where it fits (always, at 5 bands); the texture path is forced. The
-    albedo is the packed R̃ layers or the chart's texture basis (12 weights at m = 8, 8 at
-    m = 5), against the layers that basis draws, filtered with exact weights as llvmpipe
-    filters (a GPU's texture unit rounds them to 8 bits: albedo.sample_layers'
-    weight_bits, the size of the difference docs/bench_gpu.md shows on an H200)."""
+    albedo is drawn as the float32 R̃ layers, the chart's texture basis (12 weights at
+    m = 8, 8 at m = 5) or the half-float layers with the first one's rounding error; each
+    against the values that form holds, filtered with exact weights as llvmpipe filters
+    (a GPU's texture unit rounds them to 8 bits: albedo.sample_layers' weight_bits, the
+    size of the difference docs/bench_gpu.md shows on an H200)."""
     if environment_in == "texture":
         monkeypatch.setattr(prt_gpu, "environment_fits", lambda k, m: False)
     obj = _ledge_scene(clean_scene, subdivisions=6)
     clean_scene.spectral.environment.basis_size = basis
-    obj.spectral_prt.albedo_basis = albedo == "basis"
+    obj.spectral_prt.albedo_texture = albedo
     _setup(clean_scene, obj, kind="CHART", rays=128)
     assert prt.albedo_layers(obj, clean_scene).layers.shape[0] == basis
     clean_scene.spectral.environment.rotation = 0.7
@@ -88,24 +89,44 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     environment = prt.object_environment(obj, clean_scene)
     transfer = prt_gpu._OBJECTS[obj.name]["arrays"].transfer
     e = prt_images.interpolate(geometry, core_prt.irradiance(transfer, environment))
-    drawn_basis = prt_gpu._OBJECTS[obj.name]["albedo_basis"]
-    assert (drawn_basis is not None) == (albedo == "basis")
+    drawn = prt_gpu._OBJECTS[obj.name]["albedo_drawn"]
+    assert drawn.form == albedo.lower()
     layers = prt.albedo_layers(obj, clean_scene).layers
-    weights = core_albedo.sample_layers(layers if drawn_basis is None else
-                                        drawn_basis.layers(), geometry.uv)
+    if albedo == "HALF":
+        # What the texture holds, rebuilt here from float16 rounding (not half_texels).
+        packed = core_albedo.layers_to_rgba(layers).astype(np.float64)
+        high = packed.astype(np.float16).astype(np.float64)
+        high[0] += (packed[0] - high[0]).astype(np.float16)
+        np.testing.assert_array_equal(
+            drawn.layers, core_albedo.rgba_to_layers(high, basis).astype(np.float32))
+    weights = core_albedo.sample_layers(drawn.layers, geometry.uv)
     expected = np.clip(np.einsum("pm,pmc->pc", e, weights), 0.0, None)
     gpu_xyz = image[..., :3][geometry.covered]
     white = prt.environment_white_xyz(clean_scene)
     de = colour_pipeline.delta_e94(expected, gpu_xyz, white)
     assert de.max() < 0.02, de.max()
-    drawn = [k for k in shaders.cached_variants() if isinstance(k, prt_gpu.PRTShaderKey)]
-    assert any(k.environment_buffer == (environment_in == "buffer") for k in drawn), drawn
-    assert any(bool(k.albedo_basis_layers) == (albedo == "basis") for k in drawn), drawn
-    if drawn_basis is not None:
-        # Against the full layers, the basis's own error (tolerance 1e-4 of the norm).
+    keys = [k for k in shaders.cached_variants() if isinstance(k, prt_gpu.PRTShaderKey)]
+    assert any(k.environment_buffer == (environment_in == "buffer") for k in keys), keys
+    assert any(bool(k.albedo_basis_layers) == (albedo == "BASIS") and
+               k.half_layers == (albedo == "HALF") for k in keys), keys
+    if albedo != "EXACT":
+        # Against the full layers: the form's own error.
         full = np.clip(np.einsum("pm,pmc->pc", e, core_albedo.sample_layers(layers,
                                                                            geometry.uv)), 0, None)
         assert colour_pipeline.delta_e94(full, gpu_xyz, white).max() < 0.05
+
+
+def test_automatic_draws_half_floats_and_the_panel_says_so(clean_scene):
+    obj = _ledge_scene(clean_scene, subdivisions=4)
+    _setup(clean_scene, obj, kind="CHART", rays=32)
+    assert obj.spectral_prt.albedo_texture == "AUTO"
+    draw.render_camera(clean_scene, output="XYZ")
+    drawn = prt_gpu._OBJECTS[obj.name]["albedo_drawn"]
+    assert drawn.form == "half" and 0 < drawn.delta_e94 < 0.05
+    status = prt_gpu.albedo_status(obj)
+    assert "half floats" in status and "7 layers" in status, status
+    obj.spectral_prt.albedo_texture = "EXACT"
+    assert prt_gpu.albedo_status(obj) == ""          # until drawn with the new setting
 
 
 def test_rgb_prt_white_matches_spectral_and_colours_differ_under_fl4(clean_scene):
@@ -161,11 +182,10 @@ def test_unbaked_and_stale_objects_say_so_and_others_still_draw(clean_scene):
     assert "Ledge" in prt_gpu.FAILED
 
 
-@pytest.mark.parametrize("albedo_basis", [True, False])
-def test_a_corrupt_stored_albedo_image_is_named_and_others_still_draw(clean_scene,
-                                                                     albedo_basis):
+@pytest.mark.parametrize("albedo", ["AUTO", "BASIS", "EXACT"])
+def test_a_corrupt_stored_albedo_image_is_named_and_others_still_draw(clean_scene, albedo):
     obj = _ledge_scene(clean_scene, subdivisions=4)
-    obj.spectral_prt.albedo_basis = albedo_basis
+    obj.spectral_prt.albedo_texture = albedo
     _setup(clean_scene, obj, kind="CHART", rays=32)
     other = obj.copy()
     other.data = obj.data.copy()
