@@ -228,12 +228,12 @@ def headline(bench: FrameBench, scene, obj, main_rays: int, args) -> dict:
         f"RGB {row['rgb_ms']:.1f} ms, spectral/RGB {row['ratio']:.2f}")
     # The same with each other albedo form in the same run, and every form's colours
     # against the exact layers'.
-    row["albedo"] = {"AUTO": _drawn_form(obj)}
+    row["albedo"] = {"AUTO": _drawn_form(bench, obj)}
     try:
-        for form in ("HALF", "BASIS", "EXACT"):
+        for form in ("UNORM16", "BASIS", "EXACT"):
             obj.spectral_prt.albedo_texture = form
             timed = bench.measure(args.frames * 2, args.reps * 2)
-            row["albedo"][form] = {**_drawn_form(obj), **{k: timed[k] for k in (
+            row["albedo"][form] = {**_drawn_form(bench, obj), **{k: timed[k] for k in (
                 "ms", "rgb_ms", "ratio", "paired")}}
             log(f"  albedo {form}: spectral/RGB {timed['ratio']:.2f}")
     finally:
@@ -245,11 +245,12 @@ def headline(bench: FrameBench, scene, obj, main_rays: int, args) -> dict:
     return row
 
 
-def _drawn_form(obj) -> dict:
-    """What the object's albedo texture holds as drawn last (``core.prt.albedo_forms``)."""
+def _drawn_form(bench: FrameBench, obj) -> dict:
+    """What the object's spectral albedo texture holds (``core.prt.albedo_forms``)."""
+    bench.frame(False)
     drawn = prt_gpu._OBJECTS[obj.name]["albedo_drawn"]
     out = {"form": drawn.form, "texture_layers": int(drawn.texels().shape[0]),
-           "texel_bytes": 8 if drawn.texture_format == "RGBA16F" else 16,
+           "texel_bytes": 8 if drawn.texture_format == "RGBA16" else 16,
            "texel_delta_e94": drawn.delta_e94}
     if drawn.basis is not None:
         out.update(rank=drawn.basis.rank, value_error=drawn.basis.error)
@@ -257,7 +258,7 @@ def _drawn_form(obj) -> dict:
 
 
 def albedo_form_errors(bench: FrameBench, scene, obj) -> dict:
-    """ΔE94 of the drawn image (XYZ output, covered pixels) with the half-float layers and
+    """ΔE94 of the drawn image (XYZ output, covered pixels) with the 16-bit layers and
     with the basis against the exact layers, per illuminant, white = the environment's.
     llvmpipe filters with float weights; a GPU's 8-bit filter weights add to this
     (``albedo.sample_layers(..., weight_bits=8)``)."""
@@ -265,12 +266,12 @@ def albedo_form_errors(bench: FrameBench, scene, obj) -> dict:
 
     env = scene.spectral.environment
     illuminant = env.illuminant
-    errors = {"HALF": {}, "BASIS": {}}
+    errors = {"UNORM16": {}, "BASIS": {}}
     try:
         for ill in ILLUMINANTS:
             env.illuminant = ill
             images = {}
-            for form in ("EXACT", "HALF", "BASIS"):
+            for form in ("EXACT", "UNORM16", "BASIS"):
                 obj.spectral_prt.albedo_texture = form
                 bench.frame(False, output="XYZ")
                 images[form] = bench.target.read()

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from .harness import write_markdown as write_lines
+from .prt_albedo_report import albedo_form_lines
 
 #: The add-on's default window (properties.SPECTRAL_PG_environment.window), first.
 DEFAULT_WINDOW = "NONE"
@@ -314,36 +315,6 @@ def _bake_and_frames(results: dict) -> list[str]:
     ]
 
 
-_FORM_NAMES = {"HALF": "half floats", "BASIS": "basis", "EXACT": "exact layers"}
-
-
-def _albedo_form_lines(h: dict) -> list[str]:
-    """The albedo texture's forms (core/prt/albedo_forms.py) timed and compared in the
-    same run."""
-    if "albedo" not in h:
-        return []
-    forms = h["albedo"]
-    lines = [
-        f"The headline draws the albedo as *Automatic* chose: **{forms['AUTO']['form']}**. "
-        "Each form in the same run (frame time against RGB PRT on llvmpipe; colours of the "
-        "drawn image against the exact layers' image, ΔE94 mean / p95 / max over the "
-        "covered pixels):", "",
-        "| albedo texture | layers × bytes a texel | spectral / RGB | "
-        + " | ".join(f"ΔE94 {ill}" for ill in forms["HALF"].get("delta_e94", {})) + " |",
-        "|---|---|---|" + "---|" * len(forms["HALF"].get("delta_e94", {}))]
-    for form in ("HALF", "BASIS", "EXACT"):
-        f = forms[form]
-        what = _FORM_NAMES[form] + (f" ({f['rank']} weights)" if "rank" in f else "")
-        errors = [f"{e['mean']:.4f} / {e['p95']:.4f} / {e['max']:.4f}"
-                  for e in f.get("delta_e94", {}).values()] or \
-            ["0 (the reference)"] * len(forms["HALF"].get("delta_e94", {}))
-        lines.append(f"| {what} | {f['texture_layers']} × {f['texel_bytes']} | "
-                     f"{f['ratio']:.2f} | " + " | ".join(errors) + " |")
-    lines += ["", "On llvmpipe, a CPU rasteriser, the ranking is not a GPU's: "
-              "docs/bench_gpu.md has the NVIDIA H200's.", ""]
-    return lines
-
-
 def _rgb_and_headline(results: dict, t: dict) -> list[str]:
     """RGB PRT's error, and the headline: spectral against RGB PRT."""
     main = results["settings"]["main"]
@@ -365,7 +336,7 @@ def _rgb_and_headline(results: dict, t: dict) -> list[str]:
         f"Spectral PRT costs **{h['ratio']:.2f}×** the frame time of RGB PRT here "
         f"(the spectral PRT paper measured {PAPER_RATIO[0]:g}–{PAPER_RATIO[1]:g}×; the goal "
         f"is ≤ {GOAL_RATIO:g}×: this run {goal} it).", "",
-        *_albedo_form_lines(h),
+        *albedo_form_lines(h),
         f"By SH bands (rays {main['rays']}, m = {main['basis']}):", "",
         *t["rgb"], "",
     ]

@@ -21,6 +21,8 @@ import hashlib
 import json
 from pathlib import Path
 
+import numpy as np
+
 _HW = "texture(albedo_tex, vec3(tex_uv, float(l)))"
 _HW_SAMPLER = {"albedo_tex": {"linear": True, "repeat": True}}
 _HALF_SAMPLER = {"albedo_tex": {"linear": True, "repeat": True, "format": "RGBA16F"}}
@@ -193,6 +195,77 @@ for _case in ("prt_rgb", "prt_image_rgb"):
         "vec3 albedo = textureLod(albedo_tex, vec3(tex_uv, 0.0), 0.0).rgb;")]}, _REPEAT)
 SETS = {"explored": EXPLORED, "prt_paths": PRT_PATHS, "current": CURRENT}
 
+#: The albedo precisions (``--set albedo_precision``): the exact cases' packed R̃ layers
+#: re-encoded, each filtered by the texture unit: ``half_plain`` RGBA16F; ``half_lo``
+#: RGBA16F plus the first layer's rounding error in one more layer; ``unorm16`` RGBA16
+#: with a range per layer and component, decoded in the shader. Replayed with
+#: ``run_gpu.py --save-images`` to compare each GPU image's colours with the exact
+#: layers' (``albedo_precision_report``).
+PRECISION_BASES = ("prt_spectral_m8_layers", "prt_image_spectral_m8_layers")
+_FETCH = "textureLod(albedo_tex, vec3(tex_uv, float({})), 0.0)"
+
+
+def _precision_texels(packed: np.ndarray, encoding: str):
+    """(texels as uploaded in float32, GLSL decoding each layer's fetch ``v``)."""
+    if encoding == "half_plain":
+        return packed.astype(np.float16).astype(np.float32), None
+    if encoding == "half_lo":
+        high = packed.astype(np.float16).astype(np.float32)
+        low = (packed[:1].astype(np.float64) - high[:1]).astype(np.float16)
+        return np.concatenate([high, low.astype(np.float32)]), None
+    low = packed.min(axis=(1, 2))
+    span = np.maximum(packed.max(axis=(1, 2)) - low, 1e-30)
+    texels = np.rint((packed - low[:, None, None]) / span[:, None, None] * 65535.0) / 65535.0
+
+    def vec4s(rows):
+        return ", ".join("vec4(" + ", ".join(f"{float(v):.9e}" for v in r) + ")" for r in rows)
+    n = len(packed)
+    decode = (f"const vec4 SM_LOW[{n}] = vec4[{n}]({vec4s(low)});\n"
+              f"const vec4 SM_SPAN[{n}] = vec4[{n}]({vec4s(span)});\n")
+    return texels.astype(np.float32), decode
+
+
+def add_precision_variants(data: Path) -> list[str]:
+    manifest_path = data / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    cases = {c["name"]: c for c in manifest["cases"]}
+    added = []
+    for base in PRECISION_BASES:
+        albedo = cases[base]["samplers"]["albedo_tex"]
+        packed = np.load(data / albedo["blob"])
+        for encoding in ("half_plain", "half_lo", "unorm16"):
+            texels, decode = _precision_texels(packed, encoding)
+            name = f"{base}__{encoding}"
+            case = copy.deepcopy(cases[base])
+            case.update(name=name, variant_of=base, ratio_to=cases[base]["ratio_to"])
+            rel = f"blobs/{hashlib.sha1(texels.tobytes()).hexdigest()[:20]}.npy"
+            np.save(data / rel, texels)
+            case["samplers"]["albedo_tex"].update(
+                blob=rel, layers=len(texels), shape=list(texels.shape), linear=True,
+                repeat=True, format="RGBA16" if encoding == "unorm16" else "RGBA16F")
+            glsl = case["shader"]["blender_glsl"]
+            text = (data / glsl["fragment"]).read_text()
+            for k in ("", " + 1", " + 2"):
+                old = f"sm_albedo_layer(c0, w, padded, 3 * g{k})"
+                fetch = _FETCH.format(f"3 * g{k}")
+                new = f"(SM_LOW[3 * g{k}] + SM_SPAN[3 * g{k}] * {fetch})" if decode else fetch
+                if old not in text:
+                    raise SystemExit(f"{name}: fragment source lacks {old!r}")
+                text = text.replace(old, new)
+            if encoding == "half_lo":
+                first = _FETCH.format("3 * g")
+                text = text.replace(f"vec4 l0 = {first};", f"vec4 l0 = {first} + "
+                                    f"(g == 0 ? {_FETCH.format(len(packed))} : vec4(0.0));")
+            if decode:
+                text = text.replace("vec4 sm_albedo_texel(", decode + "vec4 sm_albedo_texel(", 1)
+            rel = f"glsl/{hashlib.sha1(text.encode()).hexdigest()[:20]}.frag"
+            (data / rel).write_text(text)
+            glsl["fragment"] = rel
+            manifest["cases"] = [c for c in manifest["cases"] if c["name"] != name] + [case]
+            added.append(name)
+    manifest_path.write_text(json.dumps(manifest, indent=1))
+    return added
+
 
 def _replace_btf_body(text: str, new: str) -> str:
     """The dumped BTF main's albedo and light loops (from the albedo array to the output)."""
@@ -241,9 +314,14 @@ def add_variants(data: Path, names: list[str] | None = None,
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("data")
-    parser.add_argument("--set", choices=sorted(SETS), default="current")
+    parser.add_argument("--set", choices=sorted([*SETS, "albedo_precision"]),
+                        default="current")
     parser.add_argument("--only", default="", help="comma-separated variant names")
     args = parser.parse_args()
+    if args.set == "albedo_precision":
+        for name in add_precision_variants(Path(args.data)):
+            print("added", name)
+        return
     names = [n for n in args.only.split(",") if n]
     for name in add_variants(Path(args.data), names or None, SETS[args.set]):
         print("added", name)

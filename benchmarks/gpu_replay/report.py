@@ -81,7 +81,7 @@ def precision_table(cases: dict) -> list[str]:
     return lines
 
 
-_FORMS = {"half": "half-float R̃ layers, + the first's rounding error",
+_FORMS = {"unorm16": "16-bit R̃ layers, filtered by the texture unit",
           "basis": "albedo basis", "exact": "exact R̃ layers"}
 
 
@@ -106,6 +106,30 @@ def prt_table(cases: dict) -> list[str]:
                 label = f"Automatic: {_FORMS.get(form, form)}"
             lines.append(f"| {albedo} | {label} | {_ms(c):.3f} | {_ms(c) / _ms(rgb):.2f} |")
     return lines
+
+
+def albedo_precision_lines(cases: dict, precision: Path | None) -> list[str]:
+    """The PRT albedo's precisions (patch_cases.py --set albedo_precision): frame time, and
+    the colours of the GPU's images against the exact layers' on llvmpipe."""
+    if precision is None:
+        return []
+    from .albedo_precision import _stored, markdown, precision_rows
+
+    variants = [n for n in cases if "_layers__" in n and n.startswith("prt")]
+    lines = ["### Albedo precisions", "",
+             f"`{precision}` (`python -m benchmarks.gpu_replay.albedo_precision` on it): "
+             "each image drawn by this GPU against the exact layers' image as the project "
+             "draws it on llvmpipe (float filter weights), ΔE94 on the reference's strided "
+             "subsample, white FL4. `_layers__half_plain`: the packed layers as RGBA16F; "
+             "`__half_lo`: RGBA16F plus the first layer's rounding error in one more layer; "
+             "`__unorm16`: RGBA16 over each component's range (what Automatic draws: the "
+             "unpatched `prt_spectral_m8`, `prt_image_spectral_m8`).", "",
+             *markdown(precision_rows(*_stored(None, precision))), "",
+             "| variant | ms / frame | × RGB PRT (same run) |", "|---|---|---|"]
+    for name in variants:
+        rgb = cases[cases[name]["ratio_to"]]
+        lines.append(f"| `{name}` | {_ms(cases[name]):.3f} | {_ms(cases[name]) / _ms(rgb):.2f} |")
+    return [*lines, ""]
 
 
 def btf_table(cases: dict) -> list[str]:
@@ -145,7 +169,8 @@ def agreement_table(cases: dict) -> list[str]:
 
 
 def markdown(results: dict, source: str, explored: list[dict] | None = None,
-             prt_paths: list[dict] | None = None) -> list[str]:
+             prt_paths: list[dict] | None = None,
+             precision: Path | None = None) -> list[str]:
     cases = {c["name"]: c for c in results["cases"]}
     m, e = results["machine"], results["export"]
     return [
@@ -166,6 +191,7 @@ def markdown(results: dict, source: str, explored: list[dict] | None = None,
         *precision_table(cases), "",
         "## Spectral against RGB PRT (m = 8, bands 5, 512²)", "",
         *prt_table(cases), "",
+        *albedo_precision_lines(cases, precision),
         "## BTF (800², texels blended across their edges)", "",
         *btf_table(cases), "",
         *(["## Variants timed on the way (`patch_cases.py --set explored`)", "",
@@ -194,6 +220,21 @@ def markdown(results: dict, source: str, explored: list[dict] | None = None,
         *agreement_table(cases), ""]
 
 
+def page(results_path: str, explored_paths: list[str] | None = None) -> str:
+    """docs/bench_gpu.md's text for ``results_path``: with the replays beside it of the
+    explored (``*_explored_*.json``) and PRT-path (``*_prt_paths_*.json``) variants and
+    the albedo precisions (``*_albedo_precision.npz``)."""
+    folder = Path(results_path).parent
+    results = json.loads(Path(results_path).read_text())
+    if explored_paths is None:
+        explored_paths = sorted(str(p) for p in folder.glob("*_explored_*.json"))
+    explored = [json.loads(Path(p).read_text()) for p in explored_paths]
+    prt_paths = [json.loads(p.read_text()) for p in sorted(folder.glob("*_prt_paths_*.json"))]
+    precision = sorted(folder.glob("*_albedo_precision.npz"))
+    return "\n".join(markdown(results, results_path, explored, prt_paths,
+                               precision[-1] if precision else None))
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("results", help="gpu_results.json")
@@ -202,13 +243,7 @@ def main(argv: list[str] | None = None) -> None:
                              "RESULTS' folder's *_explored_*.json)")
     parser.add_argument("--out", default="docs", help="folder for bench_gpu.md")
     args = parser.parse_args(argv)
-    results = json.loads(Path(args.results).read_text())
-    explored = args.explored if args.explored is not None else \
-        sorted(str(p) for p in Path(args.results).parent.glob("*_explored_*.json"))
-    runs = [json.loads(Path(p).read_text()) for p in explored]
-    prt_paths = [json.loads(p.read_text()) for p in
-                 sorted(Path(args.results).parent.glob("*_prt_paths_*.json"))]
-    text = "\n".join(markdown(results, args.results, runs, prt_paths))
+    text = page(args.results, args.explored)
     path = Path(args.out) / "bench_gpu.md"
     path.write_text(text)
     print(text)

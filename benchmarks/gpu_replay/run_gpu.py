@@ -499,6 +499,15 @@ def sensitivity_mask(case: dict, data: Path) -> np.ndarray | None:
     return np.unpackbits(z["mask"])[: h * w].reshape(h, w).astype(bool)
 
 
+def save_subsample(image: np.ndarray, case: dict, folder: Path) -> None:
+    """The image at the reference's strided subsample (``<case>.npy``), for colour
+    comparisons back home (patch_cases.py's albedo precisions)."""
+    ref = case["reference"]
+    s, o = ref["stride"], ref["offset"]
+    folder.mkdir(parents=True, exist_ok=True)
+    np.save(folder / f"{case['name']}.npy", np.ascontiguousarray(image[o::s, o::s]))
+
+
 def compare(image: np.ndarray, case: dict, data: Path) -> dict:
     """The image against the project's read-back on the stored pixels (strided subsample
     and crops, full-resolution coordinates), coverage at full resolution, NaN anywhere.
@@ -755,6 +764,9 @@ def main() -> None:
                         help="start no case (or Blender-GLSL control) after this long")
     parser.add_argument("--out", default=None, help="JSON path (default $OUT/gpu_results.json)")
     parser.add_argument("--keep-frames", action="store_true", help="all frame times in JSON")
+    parser.add_argument("--save-images", default=None, metavar="DIR",
+                        help="write each case's Blender-GLSL image, subsampled as its "
+                             "reference is, to DIR/<case>.npy")
     parser.add_argument("--probe", action="store_true",
                         help="only make the context and print the GL renderer")
     parser.add_argument("--make-sensitivity", type=float, default=None, metavar="EPS",
@@ -889,6 +901,8 @@ def main() -> None:
                                  clear_frames, wall_frames, args.keep_frames))
             image = render_once(ctx, target, drawable)
             run["check"] = compare(image, case, data)
+            if args.save_images and source == "blender":
+                save_subsample(image, case, Path(args.save_images))
         except Exception as exc:  # noqa: BLE001
             run["error"] = f"{type(exc).__name__}: {exc}"
             log(f"{name} [{source}]: ERROR {run['error']}")

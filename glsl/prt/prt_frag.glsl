@@ -1,13 +1,13 @@
-/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.albedo_basis.AlbedoBasis, spectral_materials.core.prt.albedo_forms.half_texels, spectral_materials.core.prt.transfer.vertex_xyz */
+/* Mirror: spectral_materials.core.prt.albedo.sample_layers, spectral_materials.core.prt.albedo.layers_to_rgba, spectral_materials.core.prt.albedo_basis.AlbedoBasis, spectral_materials.core.prt.albedo_forms.unorm16_texels, spectral_materials.core.prt.transfer.vertex_xyz */
 /* Spectral PRT, fragment stage: XYZ = Σ_j Ê_j R̃_j(uv), R̃_j the albedo × CMF layers
  * (RGB channels = X, Y, Z) filtered bilinearly by hand (texel centres, repeat wrap, as
  * spectral_materials/core/prt/albedo.py sample_layers) so that the Python mirror matches.
  * The 3m values of a texel are packed four to a layer (albedo.layers_to_rgba): value
  * q = 3j + c (coefficient j, channel c) is component q % 4 of layer q / 4, so a pixel
  * filters SM_PRT_LAYERS = ⌈3m/4⌉ layers (4 fetches each) instead of m.
- * SM_PRT_HALF_LAYERS: the same layers as half floats filtered by the texture unit, one
- * fetch each, the first layer's rounding error in layer SM_PRT_LAYERS added to it
- * (core/prt/albedo_forms.py half_texels).
+ * SM_PRT_UNORM_LAYERS: the same layers as 16-bit unorm texels over each layer component's
+ * range, filtered by the texture unit (one fetch each) and decoded as low + span · t with
+ * the uniform buffer sm_range (core/prt/albedo_forms.py unorm16_texels).
  * SM_PRT_BASIS_LAYERS > 0: the albedo as r weights per texel in a texture basis
  * (core/prt/albedo_basis.py), four to a layer, filtered by the texture unit:
  * XYZ_c = Σ_k w_k(uv) G_kc, so a pixel reads ⌈r/4⌉ texels.
@@ -31,11 +31,12 @@ vec4 sm_albedo_filtered(ivec2 c0, vec4 w, int layer)
 }
 
 /* Layer `layer` of the packed R̃ at this pixel: by the texture unit from the wrap-padded
- * half layers (at `padded`), else filtered by hand. */
+ * unorm16 layers (at `padded`), decoded, else filtered by hand. */
 vec4 sm_albedo_layer(ivec2 c0, vec4 w, vec2 padded, int layer)
 {
-#if SM_PRT_HALF_LAYERS
-  return textureLod(albedo_tex, vec3(padded, float(layer)), 0.0);
+#if SM_PRT_UNORM_LAYERS
+  return sm_range.texels[2 * layer] +
+         sm_range.texels[2 * layer + 1] * textureLod(albedo_tex, vec3(padded, float(layer)), 0.0);
 #else
   return sm_albedo_filtered(c0, w, layer);
 #endif
@@ -101,11 +102,6 @@ void main()
    * (m not a multiple of 4) read as 0. */
   for (int g = 0; g < SM_PRT_VEC4; g++) {
     vec4 l0 = sm_albedo_layer(c0, w, padded, 3 * g);
-#    if SM_PRT_HALF_LAYERS
-    if (g == 0) {
-      l0 += sm_albedo_layer(c0, w, padded, SM_PRT_LAYERS);
-    }
-#    endif
     vec4 l1 = 3 * g + 1 < SM_PRT_LAYERS ? sm_albedo_layer(c0, w, padded, 3 * g + 1) :
                                           vec4(0.0);
     vec4 l2 = 3 * g + 2 < SM_PRT_LAYERS ? sm_albedo_layer(c0, w, padded, 3 * g + 2) :

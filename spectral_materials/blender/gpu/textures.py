@@ -22,12 +22,12 @@ def float_texture(texels: np.ndarray):
 def array_texture(layers: np.ndarray, filtered: bool = False,
                   texture_format: str = "RGBA32F"):
     """A 2D-array texture from (layers, H, W, 3|4), zero-padded to RGBA; ``filtered``:
-    sampled with linear filtering (else only ``texelFetch`` reads it). For ``RGBA16F`` the
-    values should be exact in half (``core.prt.albedo_forms.half_texels``), so that the
-    upload's conversion cannot round them differently from the mirror."""
+    sampled with linear filtering (else only ``texelFetch`` reads it). For ``RGBA16`` the
+    values should be exact in unorm16 (``core.prt.albedo_forms.unorm16_texels``), so that
+    the upload's conversion cannot round them differently from the mirror."""
     import gpu
 
-    if texture_format not in ("RGBA32F", "RGBA16F"):
+    if texture_format not in ("RGBA32F", "RGBA16"):
         raise ValueError(f"no array texture of format {texture_format!r}")
     ensure_gpu()
     m, h, w = layers.shape[:3]

@@ -11,10 +11,11 @@ multiple of 4, ``ceil(m/4)`` texels of spectral coefficients, already turned int
 object's frame by ``prt.object_rotation`` (a reflection for a mirrored object) and
 divided by the scene's white Y, that of the world frame, as ``prt.vertex_xyz`` is) and
 the albedo texture array in the form the object's *Albedo texture* chooses
-(``core.prt.albedo_forms``): the ``3m`` values of R̃ packed four to a layer as half
-floats filtered by the texture unit, or as ``r`` weights per texel in a basis of the
-texture's own R̃ vectors with the mixing array in the uniform buffer ``sm_basis``, or as
-float32 filtered by hand. Each is rebuilt only when its inputs change.
+(``core.prt.albedo_forms``): the ``3m`` values of R̃ packed four to a layer as 16-bit
+unorm texels filtered by the texture unit with their ranges in the uniform buffer
+``sm_range``, or as ``r`` weights per texel in a basis of the texture's own R̃ vectors
+with the mixing array in the uniform buffer ``sm_basis``, or as float32 filtered by
+hand. Each is rebuilt only when its inputs change.
 
 ``rgb=True`` draws classical RGB PRT (L̃ and the albedo reduced to linear sRGB, one
 layer), the baseline of the frame-time and accuracy comparisons.
@@ -72,9 +73,9 @@ class PRTShaderKey:
     environment_buffer: bool = True
     #: RGBA layers of albedo-basis weights (``core.prt.albedo_basis``); 0: the R̃ layers.
     albedo_basis_layers: int = 0
-    #: The packed R̃ layers as half floats filtered by the texture unit, plus the first
-    #: layer's rounding error (``core.prt.albedo_forms.half_texels``).
-    half_layers: bool = False
+    #: The packed R̃ layers as unorm16 filtered by the texture unit, decoded with the
+    #: ranges in ``sm_range`` (``core.prt.albedo_forms.unorm16_texels``).
+    unorm_layers: bool = False
 
     @property
     def texels(self) -> int:
@@ -108,7 +109,7 @@ class PRTShaderKey:
                 "SM_PRT_LAYERS": str(self.albedo_layers),
                 "SM_PRT_ENV_BUFFER": "1" if self.environment_buffer else "0",
                 "SM_PRT_BASIS_LAYERS": str(self.albedo_basis_layers),
-                "SM_PRT_HALF_LAYERS": "1" if self.half_layers else "0",
+                "SM_PRT_UNORM_LAYERS": "1" if self.unorm_layers else "0",
                 **output_defines(PRT_OUTPUTS[self.output])}
 
     def validate(self) -> None:
@@ -125,8 +126,8 @@ class PRTShaderKey:
                                          <= -(-MAX_RANK // 4)):
             raise ValueError(f"no albedo basis of {self.albedo_basis_layers} layers "
                              f"{'for RGB PRT' if self.rgb else ''}")
-        if self.half_layers and (self.rgb or self.albedo_basis_layers):
-            raise ValueError("half-float albedo layers are for the spectral R̃ layers only")
+        if self.unorm_layers and (self.rgb or self.albedo_basis_layers):
+            raise ValueError("unorm16 albedo layers are for the spectral R̃ layers only")
 
 
 def environment_fits(sh_coefficients: int, coefficients: int) -> bool:
@@ -151,10 +152,15 @@ def create_info(key: PRTShaderKey):
     if key.albedo_basis_layers:
         typedefs += (f"\nstruct SmPrtAlbedoBasis {{\n  vec4 texels[{key.albedo_basis_texels}];"
                      "\n};\n")
+    if key.unorm_layers:
+        typedefs += (f"\nstruct SmPrtAlbedoRange {{\n  vec4 texels[{2 * key.albedo_layers}];"
+                     "\n};\n")
     info.typedef_source(typedefs)
     info.uniform_buf(0, "SmPrtParams", "sm")
     if key.albedo_basis_layers:
         info.uniform_buf(2, "SmPrtAlbedoBasis", "sm_basis")
+    elif key.unorm_layers:
+        info.uniform_buf(2, "SmPrtAlbedoRange", "sm_range")
     info.sampler(0, "FLOAT_2D", "transfer_tex")
     if key.environment_buffer:
         info.uniform_buf(1, "SmPrtEnvironment", "sm_env")
@@ -286,8 +292,8 @@ def albedo_status(obj) -> str:
     m = entry["coefficients"]
     drawn: DrawnAlbedo = entry["albedo_drawn"]
     packed = packed_layer_count(m)
-    if drawn.form == "half":
-        return (f"Albedo: {3 * m} half floats per texel in {packed + 1} layers, "
+    if drawn.form == "unorm16":
+        return (f"Albedo: {3 * m} 16-bit values per texel in {packed} layers, "
                 f"ΔE94 ≤ {drawn.delta_e94:.3f}")
     if drawn.form == "basis":
         return (f"Albedo: {drawn.basis.rank} weights per texel in "
@@ -296,16 +302,19 @@ def albedo_status(obj) -> str:
     return f"Albedo: {3 * m} values per texel in {packed} layers"
 
 
-def _drawn_albedo(entry: dict, layers, form: str) -> DrawnAlbedo:
+def _drawn_albedo(entry: dict, layers, form: str, state) -> DrawnAlbedo:
     """The drawn form of the object's layers, kept across RGB/spectral switches (a colour
-    check over every texel, or an eigen-decomposition, is not redone per switch)."""
+    check over every texel, or an eigen-decomposition, is not redone per switch). The
+    check's lights include the environment's mean radiance (its SH DC row, the same in
+    every frame)."""
+    key = (layers.key, form, state.key)
     kept = entry.get("albedo_drawn_of")
-    if kept is not None and kept[0] == (layers.key, form):
+    if kept is not None and kept[0] == key:
         return kept[1]
     # Layers are finite: every source checks its values, a stored image included
     # (state.layers_from_image names it).
-    drawn = drawn_albedo(layers, form)
-    entry["albedo_drawn_of"] = ((layers.key, form), drawn)
+    drawn = drawn_albedo(layers, form, lights=(state.environment.coefficients[0],))
+    entry["albedo_drawn_of"] = (key, drawn)
     return drawn
 
 
@@ -359,10 +368,13 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
             entry["albedo"] = array_texture(data)
             entry["albedo_size"] = (data.shape[2], data.shape[1])
         else:
-            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form)
+            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form, state)
             if drawn.basis is not None:
-                entry["albedo_basis_gpu"] = gpu.types.GPUUniformBuf(
+                entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
                     albedo_basis_texels(drawn.basis, layers.layers.shape[0]).tobytes())
+            elif drawn.unorm16 is not None:
+                entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
+                    drawn.unorm16.range_texels().tobytes())
             entry["albedo"] = array_texture(drawn.texels(), filtered=drawn.filtered,
                                             texture_format=drawn.texture_format)
             # The shader's sizes are the albedo's own, less any wrap padding.
@@ -398,7 +410,7 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
         key = PRTShaderKey(sh_count, entry["coefficients"], rgb, output,
                            environment_fits(sh_count, entry["coefficients"]),
                            basis.weight_layers if basis is not None else 0,
-                           albedo is not None and albedo.form == "half")
+                           albedo is not None and albedo.form == "unorm16")
         shader = get_shader(key)
         shader.bind()
         params = gpu.types.GPUUniformBuf(params_block(
@@ -408,7 +420,9 @@ def draw_prt_objects(scene, depsgraph, view_projection: np.ndarray, *,
         bind_environment(shader, key, entry)
         shader.uniform_sampler("albedo_tex", entry["albedo"])
         if key.albedo_basis_layers:
-            shader.uniform_block("sm_basis", entry["albedo_basis_gpu"])
+            shader.uniform_block("sm_basis", entry["albedo_buffer"])
+        elif key.unorm_layers:
+            shader.uniform_block("sm_range", entry["albedo_buffer"])
         set_matrix(shader, "model_matrix", np.array(obj.matrix_world))
         entry["batch"].draw(shader)
         drawn.append(obj.name)

@@ -123,10 +123,10 @@ class SPECTRAL_PG_prt_object(bpy.types.PropertyGroup):
         description="How the spectral albedo is stored on the GPU and read per pixel "
                     "(core/prt/albedo_forms.py)",
         items=[("AUTO", "Automatic", "The fastest form on a GPU whose colours stay within "
-                "ΔE94 0.05 of the exact layers under D65, FL11 and A: half floats, else the "
-                "basis, else the exact layers"),
-               ("HALF", "Half floats", "The R̃ layers as half floats filtered by the texture "
-                "unit, the first layer's rounding error kept in one more layer"),
+                "ΔE94 0.05 of the exact layers under D65, FL11, A and the scene's light: "
+                "16-bit layers, else the basis, else the exact layers"),
+               ("UNORM16", "16-bit", "The R̃ layers as 16-bit integers over each value's "
+                "range, filtered by the texture unit"),
                ("BASIS", "Basis", "A few weights per texel in a basis of the texture's own "
                 "spectra, filtered by the texture unit (exact for RGB images, within ΔE94 "
                 "0.05 otherwise, else the exact layers)"),

@@ -197,22 +197,25 @@ def saves_fetches(basis: AlbedoBasis, coefficients: int) -> bool:
     return basis.rank <= MAX_RANK and basis.weight_layers < packed_layer_count(coefficients)
 
 
-def colour_error(albedo: AlbedoLayers, basis: AlbedoBasis) -> float:
+def colour_error(albedo: AlbedoLayers, basis: AlbedoBasis,
+                 lights: tuple[np.ndarray, ...] = ()) -> float:
     """Largest ΔE94 over the texels between ``albedo``'s layers and the layers ``basis``
-    draws (:func:`.albedo_colour.layers_colour_error`)."""
-    return layers_colour_error(albedo, basis.layers())
+    draws, under D65, FL11, A and ``lights`` (:func:`.albedo_colour.layers_colour_error`)."""
+    return layers_colour_error(albedo, basis.layers(), lights=lights)
 
 
 def choose_albedo_basis(albedo: AlbedoLayers, bound: float = COLOUR_BOUND_DE94,
-                        tolerance: float = DEFAULT_TOLERANCE) -> AlbedoBasis | None:
+                        tolerance: float = DEFAULT_TOLERANCE,
+                        lights: tuple[np.ndarray, ...] = ()) -> AlbedoBasis | None:
     """The basis the draw uses for ``albedo``: :func:`albedo_to_basis` at ``tolerance``,
-    grown a layer of weights at a time until its :func:`colour_error` is within
-    ``bound``; None where no basis that reads fewer layers than the packed R̃ is."""
+    grown a layer of weights at a time until its :func:`colour_error` (under ``lights``
+    too) is within ``bound``; None where no basis that reads fewer layers than the packed
+    R̃ is."""
     m = albedo.count
     axes = _principal_axes(albedo.layers)      # one pass over the texels for every rank
     basis = _truncated(axes, tolerance, None)
     while saves_fetches(basis, m):
-        basis.delta_e94 = colour_error(albedo, basis)
+        basis.delta_e94 = colour_error(albedo, basis, lights)
         if basis.delta_e94 <= bound:
             return basis
         basis = _truncated(axes, tolerance, min(basis.rank + 4, 3 * m))

@@ -20,15 +20,24 @@ _TEXELS_PER_BLOCK = 1 << 16
 
 
 def layers_colour_error(albedo: AlbedoLayers, drawn: np.ndarray,
-                        illuminants: tuple[str, ...] = COLOUR_ILLUMINANTS) -> float:
-    """Largest ΔE94 over the texels between the albedo lit by each illuminant through its
+                        illuminants: tuple[str, ...] = COLOUR_ILLUMINANTS,
+                        lights: tuple[np.ndarray, ...] = ()) -> float:
+    """Largest ΔE94 over the texels between the albedo lit by each light through its
     layers and through ``drawn`` (m, H, W, 3): ``XYZ_c = Σ_j L̂_j R̃_jc`` with ``L̂`` the
-    illuminant on the layers' spectral basis, white = a unit albedo's XYZ under it.
+    light on the layers' spectral basis, white = a unit albedo's XYZ under it.
+
+    Parameters
+    ----------
+    illuminants : tuple of str
+        Named illuminants (``pipeline.illuminant_spd``), projected on the basis.
+    lights : tuple of ndarray (m,)
+        Lights already on the basis (a scene's environment). One under which a unit
+        albedo is not lit (white Y ≤ 0) is skipped.
 
     Raises
     ------
     ValueError
-        ``drawn`` is not the shape of ``albedo.layers``.
+        ``drawn`` is not the shape of ``albedo.layers``, or a light is not (m,) finite.
     """
     from ..colour.pipeline import delta_e94, illuminant_spd
 
@@ -42,10 +51,14 @@ def layers_colour_error(albedo: AlbedoLayers, drawn: np.ndarray,
     m, h, w, _ = albedo.layers.shape
     full = albedo.layers.reshape(m, h * w, 3)
     drawn = drawn.reshape(m, h * w, 3)
+    given = [np.asarray(light, dtype=np.float64) for light in lights]
+    if any(light.shape != (m,) or not np.isfinite(light).all() for light in given):
+        raise ValueError(f"lights must be finite ({m},) vectors on the albedo's basis")
     worst = 0.0
-    for illuminant in illuminants:
-        light = psi.T @ illuminant_spd(illuminant, wl)                     # L̂ (m,)
+    for light in [psi.T @ illuminant_spd(i, wl) for i in illuminants] + given:   # L̂ (m,)
         white = light @ unit.layers[:, 0, 0].astype(np.float64)
+        if not white[1] > 0.0:
+            continue
         light, white = light / white[1], white / white[1]          # white Y = 1
         for begin in range(0, h * w, _TEXELS_PER_BLOCK):
             block = slice(begin, begin + _TEXELS_PER_BLOCK)

@@ -60,7 +60,7 @@ def test_vertex_xyz_against_the_monte_carlo_reference(clean_scene):
         assert np.mean(de) < 1.0 and np.percentile(de, 95) < 3.0, (illuminant, de.mean())
 
 
-@pytest.mark.parametrize("albedo", ["EXACT", "BASIS", "HALF"])
+@pytest.mark.parametrize("albedo", ["EXACT", "BASIS", "UNORM16"])
 @pytest.mark.parametrize("environment_in", ["buffer", "texture"])
 @pytest.mark.parametrize("basis", [8, 5], ids=["m8", "m5"])
 def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, environment_in,
@@ -68,8 +68,8 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     """m = 5 leaves the last group of packed albedo layers partly empty. L̃ comes from the
     uniform buffer where it fits (always, at 5 bands); the texture path is forced. The
     albedo is drawn as the float32 R̃ layers, the chart's texture basis (12 weights at
-    m = 8, 8 at m = 5) or the half-float layers with the first one's rounding error; each
-    against the values that form holds, filtered with exact weights as llvmpipe filters
+    m = 8, 8 at m = 5) or the 16-bit layers; each against the values that form holds,
+    filtered with exact weights as llvmpipe filters
     (a GPU's texture unit rounds them to 8 bits: albedo.sample_layers' weight_bits, the
     size of the difference docs/bench_gpu.md shows on an H200)."""
     if environment_in == "texture":
@@ -92,13 +92,18 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     drawn = prt_gpu._OBJECTS[obj.name]["albedo_drawn"]
     assert drawn.form == albedo.lower()
     layers = prt.albedo_layers(obj, clean_scene).layers
-    if albedo == "HALF":
-        # What the texture holds, rebuilt here from float16 rounding (not half_texels).
+    if albedo == "UNORM16":
+        # What the texture holds, rebuilt here: 16 bits over each layer component's range.
         packed = core_albedo.layers_to_rgba(layers).astype(np.float64)
-        high = packed.astype(np.float16).astype(np.float64)
-        high[0] += (packed[0] - high[0]).astype(np.float16)
-        np.testing.assert_array_equal(
-            drawn.layers, core_albedo.rgba_to_layers(high, basis).astype(np.float32))
+        low = packed.min(axis=(1, 2), keepdims=True)
+        span = packed.max(axis=(1, 2), keepdims=True) - low
+        span[span == 0] = 1.0                       # the padding component at m = 5
+        steps = np.round((packed - low) / span * 65535) / 65535 * span + low
+        # Within one step (a code may round the other way from float32 ranges), and not
+        # the float32 values themselves.
+        error = np.abs(core_albedo.layers_to_rgba(drawn.layers) - steps)
+        assert (error <= span / 65535 * 1.001).all()
+        assert np.abs(drawn.layers - layers).max() > 1e-6 * np.abs(packed).max()
     weights = core_albedo.sample_layers(drawn.layers, geometry.uv)
     expected = np.clip(np.einsum("pm,pmc->pc", e, weights), 0.0, None)
     gpu_xyz = image[..., :3][geometry.covered]
@@ -108,7 +113,7 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
     keys = [k for k in shaders.cached_variants() if isinstance(k, prt_gpu.PRTShaderKey)]
     assert any(k.environment_buffer == (environment_in == "buffer") for k in keys), keys
     assert any(bool(k.albedo_basis_layers) == (albedo == "BASIS") and
-               k.half_layers == (albedo == "HALF") for k in keys), keys
+               k.unorm_layers == (albedo == "UNORM16") for k in keys), keys
     if albedo != "EXACT":
         # Against the full layers: the form's own error.
         full = np.clip(np.einsum("pm,pmc->pc", e, core_albedo.sample_layers(layers,
@@ -116,15 +121,15 @@ def test_gpu_matches_the_python_evaluation_pixel_by_pixel(clean_scene, basis, en
         assert colour_pipeline.delta_e94(full, gpu_xyz, white).max() < 0.05
 
 
-def test_automatic_draws_half_floats_and_the_panel_says_so(clean_scene):
+def test_automatic_draws_16_bit_layers_and_the_panel_says_so(clean_scene):
     obj = _ledge_scene(clean_scene, subdivisions=4)
     _setup(clean_scene, obj, kind="CHART", rays=32)
     assert obj.spectral_prt.albedo_texture == "AUTO"
     draw.render_camera(clean_scene, output="XYZ")
     drawn = prt_gpu._OBJECTS[obj.name]["albedo_drawn"]
-    assert drawn.form == "half" and 0 < drawn.delta_e94 < 0.05
+    assert drawn.form == "unorm16" and 0 < drawn.delta_e94 < 0.05
     status = prt_gpu.albedo_status(obj)
-    assert "half floats" in status and "7 layers" in status, status
+    assert "16-bit values" in status and "6 layers" in status, status
     obj.spectral_prt.albedo_texture = "EXACT"
     assert prt_gpu.albedo_status(obj) == ""          # until drawn with the new setting
 
