@@ -164,7 +164,10 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
                                    description="Angular parameterisation of the table")
     theta_cells: IntProperty(name="θ cells", default=32, soft_min=8, soft_max=90,
                              description="Cells over 90° of elevation; the other axes "
-                                         "scale with it (90 = the paper's 90×180×90)")
+                                         "scale with it (90 = the paper's 90×180×90). "
+                                         "With the Automatic parameterisation they are "
+                                         "doubled, up to 64, where the packs' error near "
+                                         "the horizon asks for it")
     use_target: BoolProperty(name="Target ΔE94", default=False,
                              description="Add packs until the mean ΔE94 reaches the target "
                                          "(up to 'Packs')")

@@ -17,7 +17,7 @@ from ..colour import spectra
 from ..colour.basis import LinearModelBasis
 from ..progress import ProgressCallback, report, scaled
 from ..raster_plots import plot_error_against_packs
-from . import metrics
+from . import grazing, metrics
 from .factor import factor_brdf_series
 from .factored import FactoredBRDF
 from .lobe import LOBE_FAMILIES, SpecularLobe, fit_lobe, residual_anisotropy
@@ -64,6 +64,9 @@ class FactorOptions:
     #: another layout for them (half/difference for an anisotropic glossy model); None:
     #: the same as with a lobe.
     plain_layout: tuple | None = None
+    #: Under ``automatic``: twice the θ cells where the packs' error near the horizon is
+    #: the cells' (core/brdf/grazing.py).
+    refine_theta: bool = True
 
 
 @dataclass
@@ -100,8 +103,8 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
         plain_options = replace(options, parameterization=name, resolution=tuple(resolution),
                                 isotropic=str(name).endswith("_iso") or options.isotropic)
 
-    def fit(with_lobe, low, high):
-        chosen = lobe_options if with_lobe is not None else plain_options
+    def fit(with_lobe, low, high, chosen=None):
+        chosen = chosen or (lobe_options if with_lobe is not None else plain_options)
         return factor_brdf_series(
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
@@ -116,6 +119,13 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                                                lobe_report)
     else:
         models = fit(lobe, 0.1, 0.9)
+    if options.automatic and options.refine_theta:
+        kept_lobe = models[-1].lobe
+        chosen = lobe_options if kept_lobe is not None else plain_options
+        report(callback, 0.85, "checking the horizon")
+        models, figures = grazing.refine_theta(
+            brdf, models, chosen, lambda finer: fit(kept_lobe, 0.85, 0.9, finer))
+        lobe_report = {**lobe_report, **figures}
     report(callback, 0.9, "measuring ΔE94")
     series = []
     for model in models:
@@ -126,7 +136,8 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                        + float(model.report.get("tabulate_seconds", 0.0))
                        # the lobe's fit and, under "auto", the series not kept
                        + float(lobe_report.get("lobe_fit_seconds", 0.0))
-                       + float(lobe_report.get("lobe_choice_seconds", 0.0))})
+                       + float(lobe_report.get("lobe_choice_seconds", 0.0))
+                       + float(lobe_report.get("grazing_seconds", 0.0))})
     final = models[-1]
     if options.target_de94 is not None:
         # The stopping rule's cheaper estimate, for the plot's earlier counts.
