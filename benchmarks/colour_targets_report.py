@@ -95,10 +95,16 @@ def lobe_table(result: dict) -> list[str]:
     return lines
 
 
-def theta_table(result: dict) -> list[str]:
+def theta_section(result: dict) -> list[str]:
     """Automatic θ cells (core/brdf/grazing.py): the grazing check and what it kept."""
-    lines = ["| case | settings | θ cells asked | grazing max, asked | grazing max, twice the "
-             "cells | kept | grid |", "|---|---|---|---|---|---|---|"]
+    lines = [
+        "## The θ cells Automatic chose", "",
+        "Under the Automatic layout the packs are measured at 2,000 seeded pairs with θi "
+        "and θo in [80°, 89.5°) (not the protocol's); where their largest ΔE94 lies between "
+        "2 and 20 the material is fitted again with twice the θ cells (at most 64), and that "
+        "fit is kept where it measures lower there (core/brdf/grazing.py).", "",
+        "| case | settings | θ cells asked | grazing max, asked | grazing max, twice the "
+        "cells | kept | grid |", "|---|---|---|---|---|---|---|"]
     for row in result["rows"]:
         r = row["after"]
         rep = r["lobe_report"]
@@ -110,7 +116,7 @@ def theta_table(result: dict) -> list[str]:
             f"{'not tried' if finer is None else f'{finer:.2f}'} | "
             f"{'finer' if rep.get('grazing_refined') else 'as asked'} | "
             f"{r['parameterization']} {'×'.join(map(str, r['resolution']))} |")
-    return lines
+    return [*lines, ""]
 
 
 def band_table(result: dict, key: str = "after") -> list[str]:
@@ -128,13 +134,14 @@ def band_table(result: dict, key: str = "after") -> list[str]:
     return lines
 
 
-def markdown(result: dict) -> list[str]:
+def _header(result: dict) -> list[str]:
+    """The title, what was run, and the goals."""
     grazing_deg = result["grazing_deg"]
     defaults = result["defaults"]
     theta = result["theta_cells"]
     size = ("**Quick run** (θ cells 12, at most 2 packs): a smoke test, not the figures."
             if result["quick"] else "Full run.")
-    lines = [
+    return [
         "# Colour targets (issue 18): the add-on's factorisation against the goals", "",
         f"{size} Printed by `{result['command']}` on {result['date']} at commit "
         f"{result['commit']} ({result['cpu']}, {result['cpu_count']} cores, load "
@@ -143,7 +150,7 @@ def markdown(result: dict) -> list[str]:
         "ΔE94 per shared/PROTOCOL.md: 5 nm reference of the exact BRDF (the MERL table "
         f"read back, for the measured case), {result['pairs']:,} seeded random pairs, white "
         "Lambertian under the same light. *default*: the add-on's default material settings "
-        f"(θ cells {theta['default']}, {defaults["packs"]} packs of {defaults["pack_size"]}, "
+        f"(θ cells {theta['default']}, {defaults['packs']} packs of {defaults['pack_size']}, "
         "Automatic parameterisation, specular lobe Automatic, no smoothing or target) on the "
         "basis the scene analysis chooses (tolerance 0.05, at most 16) for that material "
         "alone under D65 and FL11. "
@@ -160,7 +167,12 @@ def markdown(result: dict) -> list[str]:
         "docs/demo/report.md shows them): the options, BRDFs and basis here are those of "
         "`jobs.run_scene_job`. The fit follows tiny changes of its input (a basis moved by "
         "~1e-12 moved a mean by 5 % before), so read differences of a few per cent as noise.",
-        "",
+        ""]
+
+
+def markdown(result: dict) -> list[str]:
+    return [
+        *_header(result),
         *main_table(result), "",
         "## What each means bought", "",
         "Mean / p95 / max below 89.5° per stage, all in this run: the packs alone (the "
@@ -171,12 +183,7 @@ def markdown(result: dict) -> list[str]:
         "packs of the rest (core/brdf/lobe.py), kept where it measures better; then the "
         "same with Automatic θ cells.", "",
         *stage_table(result), "",
-        "## The θ cells Automatic chose", "",
-        "Under the Automatic layout the packs are measured at 2,000 seeded pairs with θi "
-        "and θo in [80°, 89.5°) (not the protocol's); where their largest ΔE94 lies between "
-        "2 and 20 the material is fitted again with twice the θ cells (at most 64), and that "
-        "fit is kept where it measures lower there (core/brdf/grazing.py).", "",
-        *theta_table(result), "",
+        *theta_section(result),
         "## The lobe Automatic chose", "",
         "*fit gain*: how many times smaller the fit's weighted RMS is with the lobe than a "
         "smooth surface alone (below 2 no lobe is tried; from 20 it is kept without "
@@ -195,6 +202,5 @@ def markdown(result: dict) -> list[str]:
         *band_table(result, "before"), "",
         "MERL round trip (s): " + ", ".join(f"{k} {v:.2f}"
                                            for k, v in result["merl_timings"].items()), ""]
-    return lines
 
 

@@ -127,17 +127,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
             brdf, models, chosen, lambda finer: fit(kept_lobe, 0.85, 0.9, finer))
         lobe_report = {**lobe_report, **figures}
     report(callback, 0.9, "measuring ΔE94")
-    series = []
-    for model in models:
-        stats = error.stats(model)
-        model.report.update(lobe_report)
-        series.append({"packs": model.packs, "de94": stats,
-                       "seconds": float(model.report.get("factor_seconds", 0.0))
-                       + float(model.report.get("tabulate_seconds", 0.0))
-                       # the lobe's fit and, under "auto", the series not kept
-                       + float(lobe_report.get("lobe_fit_seconds", 0.0))
-                       + float(lobe_report.get("lobe_choice_seconds", 0.0))
-                       + float(lobe_report.get("grazing_seconds", 0.0))})
+    series = _measured_series(models, error, lobe_report)
     final = models[-1]
     if options.target_de94 is not None:
         # The stopping rule's cheaper estimate, for the plot's earlier counts.
@@ -156,6 +146,21 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     report(callback, 1.0, "done")
     return MaterialJobResult(model=final, series=series, plot=plot, seconds=seconds,
                              models=list(models) if options.target_de94 is None else [final])
+
+
+def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,
+                     figures: dict) -> list[dict]:
+    """Per model: its pack count, protocol ΔE94 and seconds, the choices' own included
+    (the lobe's fit and the series Automatic measured and dropped)."""
+    series = []
+    for model in models:
+        model.report.update(figures)
+        spent = sum(float(source.get(key, 0.0)) for source, key in (
+            (model.report, "factor_seconds"), (model.report, "tabulate_seconds"),
+            (figures, "lobe_fit_seconds"), (figures, "lobe_choice_seconds"),
+            (figures, "grazing_seconds")))
+        series.append({"packs": model.packs, "de94": error.stats(model), "seconds": spent})
+    return series
 
 
 def _wavelengths(basis: LinearModelBasis | None) -> np.ndarray:
