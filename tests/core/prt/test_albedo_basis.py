@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from albedo_charts import chart_texture
 
-from spectral_materials.core.colour import spectra
 from spectral_materials.core.prt import albedo as core_albedo
 from spectral_materials.core.prt.albedo_basis import (
     albedo_to_basis,
@@ -20,8 +20,7 @@ WL = np.arange(400.0, 701.0, 10.0)
 
 
 def _chart(patch: int = 4) -> np.ndarray:
-    patches = np.stack([spectra.colorchecker(i, WL) for i in range(1, 25)])
-    return np.repeat(np.repeat(patches.reshape(4, 6, -1), patch, 0), patch, 1)
+    return chart_texture(WL, patch)
 
 
 def _basis(m: int) -> np.ndarray:
