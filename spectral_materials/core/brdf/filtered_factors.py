@@ -104,6 +104,11 @@ class FilteredFactorsBRDF(FactoredBRDF):
     padded: list[np.ndarray] = field(default_factory=list)
     encoding: str = "half"
     weight_bits: int | None = HARDWARE_WEIGHT_BITS
+    #: The texture unit returns the filtered value rounded to half (``"half"`` only), as
+    #: an NVIDIA H200 does: there ``half_filtered``'s XYZ image differs from llvmpipe's by
+    #: 1.8e-4 (mean relative) against ``unorm16_filtered``'s 7.2e-5, and half layers with
+    #: their rounding error in a second layer drew as plain half (docs/bench_gpu.md).
+    half_output: bool = False
 
     def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
         prod = np.ones((coords.shape[0], self.terms))
@@ -115,7 +120,10 @@ class FilteredFactorsBRDF(FactoredBRDF):
                 steps = float(1 << int(self.weight_bits))
                 w = np.floor(w * steps + 0.5) / steps
             table = self.padded[k]
-            prod *= (1.0 - w)[:, None] * table[i] + w[:, None] * table[i + 1]
+            value = (1.0 - w)[:, None] * table[i] + w[:, None] * table[i + 1]
+            if self.half_output and self.encoding == "half":
+                value = value.astype(np.float16).astype(np.float64)
+            prod *= value
         return prod
 
     def truncated(self, packs: int) -> FactoredBRDF:
@@ -147,8 +155,10 @@ class FilteredFactorsBRDF(FactoredBRDF):
 
 
 def filtered_factors(model: FactoredBRDF, encoding: str = "half",
-                     weight_bits: int | None = HARDWARE_WEIGHT_BITS) -> FilteredFactorsBRDF:
-    """``model`` as the fast path with ``encoding`` draws it: padded, balanced, quantised."""
+                     weight_bits: int | None = HARDWARE_WEIGHT_BITS,
+                     half_output: bool = False) -> FilteredFactorsBRDF:
+    """``model`` as the fast path with ``encoding`` draws it: padded, balanced, quantised;
+    ``half_output``: the filtered values rounded to half, as a texture unit returns them."""
     if model.form != "cp":
         raise ValueError("the fast draw path draws CP factor packs only")
     if encoding not in TEXTURE_FORMATS:
@@ -169,21 +179,22 @@ def filtered_factors(model: FactoredBRDF, encoding: str = "half",
     fields = {name: getattr(model, name) for name in FactoredBRDF.__dataclass_fields__}
     fields.update(factors=[rows[PAD:-PAD] for rows in padded], spectral=spectral)
     return FilteredFactorsBRDF(**fields, padded=padded, encoding=encoding,
-                               weight_bits=weight_bits)
+                               weight_bits=weight_bits, half_output=half_output)
 
 
 
 def drawn_model(model: FactoredBRDF, precision: str) -> FactoredBRDF:
     """What the draw path with ``precision`` (``FACTOR_PRECISIONS``) evaluates: ``model``
     itself when exact; else its 16-bit rows with shader weights (float) or the
-    texture unit's (8-bit)."""
+    texture unit's (8-bit weights; a filtered half value returned as half)."""
     if precision == "exact":
         return model
     if precision not in PRECISION_TEXELS:
         raise ValueError(f"factor precision must be one of {FACTOR_PRECISIONS}, "
                          f"got {precision!r}")
     encoding, filtered = PRECISION_TEXELS[precision]
-    return filtered_factors(model, encoding, HARDWARE_WEIGHT_BITS if filtered else None)
+    return filtered_factors(model, encoding, HARDWARE_WEIGHT_BITS if filtered else None,
+                            half_output=filtered)
 
 
 #: The issue's bound on a fast path's colour error against the exact path (ΔE94).

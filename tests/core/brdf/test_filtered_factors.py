@@ -126,6 +126,15 @@ def test_eight_bit_weights_step_between_cells():
     exact = filtered_factors(model, "half", weight_bits=None)._angular_terms(coords)[:, 0]
     np.testing.assert_allclose(stepped, [0, 77 / 256, 0, 1 / 256, 1, 101 / 256], atol=1e-12)
     np.testing.assert_allclose(exact, w, atol=1e-12)
+    # A texture unit returning the filtered half as half (the H200): 0.3 is not a half,
+    # so it comes back as the nearest one, 0.300048828125 (11 significant bits).
+    returned = filtered_factors(model, "half", weight_bits=None,
+                                half_output=True)._angular_terms(coords)[:, 0]
+    np.testing.assert_array_equal(returned, np.float16(w).astype(np.float64))
+    assert returned[1] == 0.300048828125
+    unorm = [filtered_factors(model, "unorm16", weight_bits=None, half_output=flag)
+             ._angular_terms(coords) for flag in (True, False)]
+    np.testing.assert_array_equal(unorm[0], unorm[1])          # unorm16 is not rounded
 
 
 def test_truncating_the_rows_is_refused():
