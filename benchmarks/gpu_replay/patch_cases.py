@@ -177,7 +177,7 @@ CURRENT: dict[str, tuple[str, dict, dict]] = {
 #: filtered by the texture unit (one fetch per layer, 3m/4 of them) instead of by hand
 #: (four), as RGBA32F and RGBA16F; the basis's weights as RGBA16F; the chart's basis cut to
 #: 8 weights (the colour bound needs 12); RGB PRT filtered alike. Their H200 replays,
-#: docs/gpu/h200_prt_paths_*.json, led to the half-float layers (core/prt/albedo_forms.py).
+#: docs/gpu/h200_prt_paths_*.json, led to the 16-bit layers (core/prt/albedo_forms.py).
 PRT_PATHS: dict[str, tuple[str, dict, dict]] = {}
 _LAYER_HW = [(f"sm_albedo_filtered(c0, w, 3 * g{k})",
               f"textureLod(albedo_tex, vec3(tex_uv, float(3 * g{k})), 0.0)")

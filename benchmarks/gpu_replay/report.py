@@ -209,7 +209,8 @@ def markdown(results: dict, source: str, explored: list[dict] | None = None,
             "`layers_hw32`/`layers_hw16`: the packed R̃ layers filtered by the texture unit "
             "as RGBA32F/RGBA16F instead of by hand; `basis_hw16`: the basis's weights as "
             "RGBA16F; `basis_two_layers`: 8 weights; `rgb_hw32`: RGB PRT filtered by the "
-            "texture unit. They led to the half-float layers, Automatic's first choice.", "",
+            "texture unit. They led to the 16-bit layers, Automatic's first choice (half floats "
+            "were left out: see Albedo precisions).", "",
             *explored_table(prt_paths), ""] if prt_paths else []),
         "## Agreement with the project's llvmpipe read-back", "",
         "Per pixel: max over RGB |GPU − llvmpipe| / max(|llvmpipe|, 1e-4). *Unexplained*: "

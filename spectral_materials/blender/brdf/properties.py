@@ -166,8 +166,8 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
                              description="Cells over 90° of elevation; the other axes "
                                          "scale with it (90 = the paper's 90×180×90). "
                                          "With the Automatic parameterisation they are "
-                                         "doubled, up to 64, where the packs' error near "
-                                         "the horizon asks for it")
+                                         "doubled where the packs' error near the horizon "
+                                         "asks for it and twice them is at most 64")
     use_target: BoolProperty(name="Target ΔE94", default=False,
                              description="Add packs until the mean ΔE94 reaches the target "
                                          "(up to 'Packs')")

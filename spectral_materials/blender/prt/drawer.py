@@ -302,18 +302,22 @@ def albedo_status(obj) -> str:
     return f"Albedo: {3 * m} values per texel in {packed} layers"
 
 
-def _drawn_albedo(entry: dict, layers, form: str, state) -> DrawnAlbedo:
+def _scene_light(state) -> np.ndarray:
+    """The light Automatic's colour check adds for this scene: the environment's mean
+    radiance on the PRT basis (its SH DC row, the same in every frame and rotation)."""
+    return np.asarray(state.environment.coefficients[0], dtype=np.float64)
+
+
+def _drawn_albedo(entry: dict, layers, form: str, light: np.ndarray) -> DrawnAlbedo:
     """The drawn form of the object's layers, kept across RGB/spectral switches (a colour
-    check over every texel, or an eigen-decomposition, is not redone per switch). The
-    check's lights include the environment's mean radiance (its SH DC row, the same in
-    every frame)."""
-    key = (layers.key, form, state.key)
+    check over every texel, or an eigen-decomposition, is not redone per switch)."""
+    key = (layers.key, form, light.tobytes())
     kept = entry.get("albedo_drawn_of")
     if kept is not None and kept[0] == key:
         return kept[1]
     # Layers are finite: every source checks its values, a stored image included
     # (state.layers_from_image names it).
-    drawn = drawn_albedo(layers, form, lights=(state.environment.coefficients[0],))
+    drawn = drawn_albedo(layers, form, lights=(light,))
     entry["albedo_drawn_of"] = (key, drawn)
     return drawn
 
@@ -359,7 +363,10 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
         entry["env_key"] = env_key
     layers = prt.albedo_layers(obj, scene)
     form = obj.spectral_prt.albedo_texture.lower()
-    albedo_key = (layers.key, rgb, form)
+    light = _scene_light(state)
+    # RGB PRT draws one RGB layer whatever the form; spectral, the form checked under the
+    # scene's light.
+    albedo_key = (layers.key, True) if rgb else (layers.key, False, form, light.tobytes())
     if entry.get("albedo_key") != albedo_key:
         if rgb:
             source = prt.albedo_source(obj)
@@ -368,7 +375,7 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
             entry["albedo"] = array_texture(data)
             entry["albedo_size"] = (data.shape[2], data.shape[1])
         else:
-            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form, state)
+            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form, light)
             if drawn.basis is not None:
                 entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
                     albedo_basis_texels(drawn.basis, layers.layers.shape[0]).tobytes())

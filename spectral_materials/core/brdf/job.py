@@ -122,11 +122,11 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     if options.automatic and options.refine_theta:
         kept_lobe = models[-1].lobe
         chosen = lobe_options if kept_lobe is not None else plain_options
-        report(callback, 0.85, "checking the horizon")
+        report(callback, 0.9, "checking the horizon")
         models, figures = grazing.refine_theta(
-            brdf, models, chosen, lambda finer: fit(kept_lobe, 0.85, 0.9, finer))
+            brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
         lobe_report = {**lobe_report, **figures}
-    report(callback, 0.9, "measuring ΔE94")
+    report(callback, 0.95, "measuring ΔE94")
     series = _measured_series(models, error, lobe_report)
     final = models[-1]
     if options.target_de94 is not None:

@@ -1,6 +1,6 @@
 """The colour a drawn albedo texture makes against the exact R̃ layers.
 
-Every cheaper form of the albedo that spectral PRT draws (half-float layers, a texture
+Every cheaper form of the albedo that spectral PRT draws (16-bit layers, a texture
 basis: :mod:`.albedo_forms`) is accepted only where no texel moves by more than
 :data:`COLOUR_BOUND_DE94` against the float32 layers under each of
 :data:`COLOUR_ILLUMINANTS`: a daylight, a spiky fluorescent and an incandescent light.

@@ -12,7 +12,7 @@ Three forms hold an object's R̃ layers (:mod:`.albedo`), ``3m`` values per texe
 - ``"exact"``: the packed float32 layers filtered by hand (four ``texelFetch`` a layer).
 
 On an NVIDIA H200 at m = 8 (512², the ColorChecker chart) the packed layers drew at
-1.05 × RGB PRT as RGBA16 filtered by the texture unit, 1.88 × as RGBA32F filtered by it,
+1.07 × RGB PRT as RGBA16 filtered by the texture unit, 1.88 × as RGBA32F filtered by it,
 2.47 × filtered by hand; the basis at 1.73 × (``docs/bench_gpu.md``): the texture unit
 filters a 16-byte texel at a fraction of an 8-byte one's rate, and the basis's
 multiply-adds cost more than the fetches they save. ``"auto"`` takes the first form of
@@ -90,6 +90,8 @@ def unorm16_texels(layers: np.ndarray) -> Unorm16Layers:
     low = packed.min(axis=(1, 2)).astype(np.float32)
     span = packed.max(axis=(1, 2)) - low
     span = np.where(span > 0.0, span, 1.0).astype(np.float32)
+    if not (np.isfinite(low).all() and np.isfinite(span).all()):
+        raise ValueError("albedo layers span more than float32 holds")
     codes = np.rint((packed - low[:, None, None]) / span[:, None, None] * _UNORM_MAX)
     texels = (np.clip(codes, 0.0, _UNORM_MAX) / _UNORM_MAX).astype(np.float32)
     return Unorm16Layers(np.ascontiguousarray(texels), low, span)
@@ -153,7 +155,9 @@ def drawn_albedo(albedo: AlbedoLayers, form: str = "auto",
         ``"basis"`` falls back to the exact layers where no basis that reads fewer
         layers meets ``bound`` (:func:`.albedo_basis.choose_albedo_basis`).
     bound : float
-        ΔE94 against the exact layers, per texel, under D65, FL11, A and ``lights``.
+        ΔE94 against the exact layers, per texel, under D65, FL11, A and ``lights``: the
+        texels' values, not the texture unit's 8-bit filter weights (which move sharp
+        edges by up to 1/256 of a texel on any filtered form).
     lights : tuple of ndarray (m,)
         More lights on the layers' spectral basis: the scene's own (the environment's
         mean radiance), whose spectrum decides how the coefficients' errors add up.

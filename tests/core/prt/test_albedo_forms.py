@@ -150,6 +150,10 @@ def test_bad_input_is_refused_and_constant_components_decode_exactly():
     nan[1, 2, 3, 1] = np.inf
     with pytest.raises(ValueError, match="1 non-finite"):
         unorm16_texels(nan)
+    wide = albedo.layers.copy()
+    wide[0, 0, 0, 0], wide[0, 0, 1, 0] = 3e38, -3e38          # finite, but no float32 span
+    with pytest.raises(ValueError, match="span more than float32"):
+        unorm16_texels(wide)
     flat = np.full((3, 4, 4, 3), 0.25, dtype=np.float32)
     encoded = unorm16_texels(flat)
     np.testing.assert_array_equal(encoded.decoded()[:, ..., :1], 0.25)
