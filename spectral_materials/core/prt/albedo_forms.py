@@ -89,9 +89,9 @@ def unorm16_texels(layers: np.ndarray) -> Unorm16Layers:
         raise ValueError(f"albedo layers hold {bad} non-finite (NaN/inf) values")
     low = packed.min(axis=(1, 2)).astype(np.float32)
     span = packed.max(axis=(1, 2)) - low
-    span = np.where(span > 0.0, span, 1.0).astype(np.float32)
-    if not (np.isfinite(low).all() and np.isfinite(span).all()):
+    if np.abs(span).max() > np.finfo(np.float32).max:
         raise ValueError("albedo layers span more than float32 holds")
+    span = np.where(span > 0.0, span, 1.0).astype(np.float32)
     codes = np.rint((packed - low[:, None, None]) / span[:, None, None] * _UNORM_MAX)
     texels = (np.clip(codes, 0.0, _UNORM_MAX) / _UNORM_MAX).astype(np.float32)
     return Unorm16Layers(np.ascontiguousarray(texels), low, span)
