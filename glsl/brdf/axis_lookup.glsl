@@ -1,11 +1,13 @@
-/* Mirror: spectral_materials.core.brdf.axes.axis_lookup, spectral_materials.core.brdf.axes.horizon_scale */
+/* Mirror: spectral_materials.core.brdf.axes.axis_lookup, spectral_materials.core.brdf.axes.horizon_scale, spectral_materials.core.brdf.axes.holds_horizon */
 /* Linear-interpolation indices and weight on an axis's cell centres.
  * Mirrors axes.axis_lookup: value ≈ mix(table[i0], table[i1], w). Periodic axes
  * wrap between the last and first cells; other axes clamp the value into [lo, hi]
  * and, by edge rule, extrapolate linearly beyond the end centres (SM_EDGE_LINEAR),
  * hold them (SM_EDGE_CLAMP), or hold the last centre of a horizon axis and let
- * the returned scale take the lookup to 0 at hi (SM_EDGE_HORIZON, axes.horizon_scale).
- * flags: bit 0 periodic, bit 1 square-root warp, bit 2 horizon axis (θi).
+ * the returned scale take the lookup to 0 at hi (SM_EDGE_HORIZON on θi; SM_EDGE_HORIZONS
+ * on θi and θo: axes.holds_horizon, axes.horizon_scale).
+ * flags: bit 0 periodic, bit 1 square-root warp, bit 2 horizon axis (θi), bit 3 view-
+ * horizon axis (θo).
  * SM_EDGE_<RULE> are defined per variant from axes.EDGE_RULES (gpu/shaders.py). */
 
 /* The axis value as x = u·cells − 0.5, u the warped unit coordinate. */
@@ -26,10 +28,17 @@ float sm_axis_x(float v, float lo, float span, int flags, int cells)
   return t * float(cells) - 0.5;
 }
 
-/* axes.horizon_scale's value at x (1 unless the rule is horizon and the axis θi). */
+/* axes.holds_horizon: whether the edge rule takes this axis to 0 at hi. */
+bool sm_holds_horizon(int flags, int edge)
+{
+  return ((flags & 4) != 0 && (edge == SM_EDGE_HORIZON || edge == SM_EDGE_HORIZONS)) ||
+         ((flags & 8) != 0 && edge == SM_EDGE_HORIZONS);
+}
+
+/* axes.horizon_scale's value at x (1 unless the rule holds this axis's horizon). */
 float sm_horizon_scale(float x, int flags, int cells, int edge)
 {
-  if (edge == SM_EDGE_HORIZON && (flags & 4) != 0) {
+  if (sm_holds_horizon(flags, edge)) {
     return clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
   }
   return 1.0;
@@ -62,7 +71,7 @@ void sm_axis_lookup(float v, float lo, float span, int flags, int cells, int edg
     if (edge == SM_EDGE_CLAMP) {
       w = clamp(w, 0.0, 1.0);
     }
-    else if (edge == SM_EDGE_HORIZON && (flags & 4) != 0) {
+    else if (sm_holds_horizon(flags, edge)) {
       w = min(w, 1.0);
     }
   }

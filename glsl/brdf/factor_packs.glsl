@@ -17,7 +17,7 @@ struct SmLookup {
   ivec4 i0;
   ivec4 i1;
   vec4 w;
-  float scale; /* the horizon edge rule's fall to 0 at θi = 90° (1 elsewhere) */
+  float scale; /* the horizon edge rules' fall to 0 at θi (and θo) = 90° (1 elsewhere) */
 };
 
 SmLookup sm_lookups(vec4 coords)

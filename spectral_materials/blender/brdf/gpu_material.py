@@ -55,7 +55,8 @@ class MaterialUniforms:
             axis_lo=tuple(float(a.lo) for a in axes) + (0.0,) * pad,
             axis_span=tuple(float(a.span) for a in axes) + (1.0,) * pad,
             axis_flags=tuple(int(a.periodic) | (2 if a.warp == "sqrt" else 0)
-                             | (4 if a.horizon else 0) for a in axes) + (0,) * pad,
+                             | (4 if a.horizon else 0) | (8 if a.view_horizon else 0)
+                             for a in axes) + (0,) * pad,
             axis_cells=tuple(int(n) for n in model.grid.shape) + (1,) * pad,
             edge_rule=EDGE_RULES.index(model.edge),
             pack_rows=-(-model.terms // 4),

@@ -34,6 +34,7 @@ import math
 import bpy
 import numpy as np
 
+from ...core.brdf.axes import holds_horizon
 from ...core.brdf.factored import FactoredBRDF
 from .light_nodes import KeyLight, light_incidence, shading_frame
 from .lobe_nodes import lobe_rgb
@@ -212,7 +213,7 @@ def _axis_lookup(g: Graph, x, axis, cells: int, edge: str, column: int, k: int):
     if edge == "clamp":
         w = g.math("MINIMUM", g.math("MAXIMUM", w, 0.0, column=column + 8), 1.0,
                    column=column + 8)
-    elif edge == "horizon" and axis.horizon:
+    elif holds_horizon(axis, edge):
         w = g.math("MINIMUM", w, 1.0, column=column + 8)
     return i0, i1, w
 
@@ -245,7 +246,7 @@ def _axis_lookups(g: Graph, model: FactoredBRDF, coords, base: int) -> tuple[lis
     lookups, scale = [], None
     g.begin("Axis lookups")
     for k, (axis, cells) in enumerate(zip(model.grid.parameterization.axes, model.grid.shape)):
-        horizon = model.edge == "horizon" and axis.horizon
+        horizon = holds_horizon(axis, model.edge)
         if cells == 1 and not horizon:
             lookups.append((0.0, 0.0, 0.0))
             continue

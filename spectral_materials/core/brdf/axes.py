@@ -10,6 +10,10 @@ horizon, falls linearly from the last centre to 0 at ``hi``. The fall is a scale
 whole lookup (:func:`horizon_scale`), since every stored form is linear in each axis's
 interpolated value; it is exact for the cosine's own zero, which linear extrapolation
 misses by up to half a cell's slope (issue 18: ΔE94 up to 26 on Oren–Nayar at θi > 89.9°).
+``"horizons"`` does the same on the view's θo axis too (a *view-horizon axis*), for
+tables that also vanish as the view reaches its horizon: a layered surface's diffuse
+term, the rest beside a glossy lobe. Oren–Nayar's does not (its retro-reflection stays),
+so the rule is chosen per material by measuring (``grazing.choose_edge``).
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import numpy as np
 
 _WARPS = ("linear", "sqrt")
 #: Edge rules of :func:`axis_lookup` (see the module docstring).
-EDGE_RULES = ("linear", "clamp", "horizon")
+EDGE_RULES = ("linear", "clamp", "horizon", "horizons")
 
 
 @dataclass(frozen=True)
@@ -39,8 +43,11 @@ class Axis:
         ``"linear"``: u = (v − lo)/(hi − lo); ``"sqrt"``: u = ((v − lo)/(hi − lo))^½
         (MERL-style θh spacing: cells are denser near ``lo``).
     horizon : bool
-        ``hi`` is the light's horizon (θi axes): the ``"horizon"`` edge rule takes a
-        cosine-weighted table to 0 there.
+        ``hi`` is the light's horizon (θi axes): the ``"horizon"`` and ``"horizons"`` edge
+        rules take a cosine-weighted table to 0 there.
+    view_horizon : bool
+        ``hi`` is the view's horizon (θo axes): the ``"horizons"`` edge rule takes the
+        table to 0 there.
     """
 
     name: str
@@ -49,13 +56,14 @@ class Axis:
     periodic: bool
     warp: str = "linear"
     horizon: bool = False
+    view_horizon: bool = False
 
     def __post_init__(self) -> None:
         if not self.hi > self.lo:
             raise ValueError(f"axis {self.name}: hi ({self.hi}) must exceed lo ({self.lo})")
         if self.warp not in _WARPS:
             raise ValueError(f"axis {self.name}: warp must be one of {_WARPS}, got {self.warp!r}")
-        if self.horizon and self.periodic:
+        if (self.horizon or self.view_horizon) and self.periodic:
             raise ValueError(f"axis {self.name}: a periodic axis has no horizon")
 
     @property
@@ -98,6 +106,12 @@ class Axis:
         return self.from_unit((np.arange(n, dtype=np.float64) + 0.5) / n)
 
 
+def holds_horizon(axis: Axis, edge: str) -> bool:
+    """Whether ``edge`` takes lookups on ``axis`` to 0 at its ``hi``."""
+    return ((axis.horizon and edge in ("horizon", "horizons"))
+            or (axis.view_horizon and edge == "horizons"))
+
+
 def axis_lookup(
     axis: Axis, n: int, values: np.ndarray, edge: str = "linear"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -113,8 +127,9 @@ def axis_lookup(
     and the first centre, or the last centre and ``hi``, ``edge="linear"``
     extrapolates from the two nearest centres (w ∈ [−0.5, 1.5]) and
     ``edge="clamp"`` holds the end value (w clipped to [0, 1]); ``edge="horizon"``
-    holds the value beyond the last centre of a horizon axis (w ≤ 1), where
-    :func:`horizon_scale` takes it to 0, and is ``"linear"`` everywhere else. With
+    (``"horizons"``) holds the value beyond the last centre of an axis
+    :func:`holds_horizon` (w ≤ 1), where :func:`horizon_scale` takes it to 0, and is
+    ``"linear"`` everywhere else. With
     ``n == 1``, i0 = i1 = 0 and w = 0. NaN values count as ``lo``, ±inf as ``hi``/``lo``.
 
     Returns
@@ -139,14 +154,16 @@ def axis_lookup(
     w = x - i0
     if edge == "clamp":
         w = np.clip(w, 0.0, 1.0)
-    elif edge == "horizon" and axis.horizon:
+    elif holds_horizon(axis, edge):
         w = np.minimum(w, 1.0)
     return i0, i0 + 1, w
 
 
-def horizon_scale(axis: Axis, n: int, values: np.ndarray) -> np.ndarray:
-    """The ``"horizon"`` edge rule's scale: 1 up to the last cell centre of a horizon
-    axis, then linear in the warped coordinate down to 0 at ``hi``; 1 on other axes.
+def horizon_scale(axis: Axis, n: int, values: np.ndarray, edge: str = "horizon"
+                  ) -> np.ndarray:
+    """The ``"horizon"`` (or ``"horizons"``) edge rule's scale: 1 up to the last cell
+    centre of an axis :func:`holds_horizon`, then linear in the warped coordinate down
+    to 0 at ``hi``; 1 on other axes.
 
     Multiplying a lookup held at the last centre by this scale interpolates between the
     last centre's value and 0 at the horizon. NaN counts as ``lo`` (scale 1), as in
@@ -154,7 +171,7 @@ def horizon_scale(axis: Axis, n: int, values: np.ndarray) -> np.ndarray:
     """
     n = int(n)
     x = cell_x(axis, n, values)
-    if not axis.horizon:
+    if not holds_horizon(axis, edge):
         return np.ones(x.shape, dtype=np.float64)
     return np.clip(2.0 * (n - 0.5 - x), 0.0, 1.0)
 

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import metrics
-from .axes import cell_x
+from .axes import cell_x, holds_horizon
 from .factored import FactoredBRDF
 
 #: How the draw path stores and interpolates factors: ``"exact"`` float32 rows, two
@@ -73,10 +73,11 @@ def edge_pads(table: np.ndarray, periodic: bool, low: str, high: str) -> np.ndar
 
 
 def end_rules(edge: str, horizon: bool) -> tuple[str, str]:
-    """(low end, high end) of a non-periodic axis under ``edge``, as ``axes.axis_lookup``."""
+    """(low end, high end) of a non-periodic axis under ``edge``, as ``axes.axis_lookup``;
+    ``horizon``: the rule holds this axis's horizon (``axes.holds_horizon``)."""
     if edge == "clamp":
         return "clamp", "clamp"
-    if edge == "horizon" and horizon:
+    if horizon:
         return "linear", "clamp"
     return "linear", "linear"
 
@@ -168,7 +169,8 @@ def filtered_factors(model: FactoredBRDF, encoding: str = "half",
     spectral = np.asarray(model.spectral, dtype=np.float64).copy()
     padded = []
     for axis, table in zip(model.grid.parameterization.axes, model.factors):
-        rows = edge_pads(table, axis.periodic, *end_rules(model.edge, axis.horizon))
+        rows = edge_pads(table, axis.periodic,
+                         *end_rules(model.edge, holds_horizon(axis, model.edge)))
         peak = np.abs(rows).max(axis=0)
         if not np.isfinite(peak).all():
             raise ValueError("a factor is not finite")

@@ -119,13 +119,9 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                                                lobe_report)
     else:
         models = fit(lobe, 0.1, 0.9)
-    if options.automatic and options.refine_theta:
-        kept_lobe = models[-1].lobe
-        chosen = lobe_options if kept_lobe is not None else plain_options
-        report(callback, 0.9, "checking the horizon")
-        models, figures = grazing.refine_theta(
-            brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
-        lobe_report = {**lobe_report, **figures}
+    if options.automatic:
+        models, lobe_report = _automatic_horizon(brdf, models, options, lobe_report, fit,
+                                                 lobe_options, plain_options, callback)
     report(callback, 0.95, "measuring ΔE94")
     series = _measured_series(models, error, lobe_report)
     final = models[-1]
@@ -148,6 +144,21 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                              models=list(models) if options.target_de94 is None else [final])
 
 
+def _automatic_horizon(brdf, models: list[FactoredBRDF], options: FactorOptions,
+                       figures: dict, fit, lobe_options: FactorOptions,
+                       plain_options: FactorOptions, callback) -> tuple[list, dict]:
+    """Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ cells where
+    the packs' error there is the cells', then the edge rule at the view's horizon."""
+    report(callback, 0.9, "checking the horizon")
+    if options.refine_theta:
+        kept_lobe = models[-1].lobe
+        chosen = lobe_options if kept_lobe is not None else plain_options
+        models, refined = grazing.refine_theta(
+            brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
+        figures = {**figures, **refined}
+    return models, {**figures, **grazing.choose_edge(brdf, models)}
+
+
 def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,
                      figures: dict) -> list[dict]:
     """Per model: its pack count, protocol ΔE94 and seconds, the choices' own included
@@ -158,7 +169,7 @@ def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,
         spent = sum(float(source.get(key, 0.0)) for source, key in (
             (model.report, "factor_seconds"), (model.report, "tabulate_seconds"),
             (figures, "lobe_fit_seconds"), (figures, "lobe_choice_seconds"),
-            (figures, "grazing_seconds")))
+            (figures, "grazing_seconds"), (figures, "edge_seconds")))
         series.append({"packs": model.packs, "de94": error.stats(model), "seconds": spent})
     return series
 

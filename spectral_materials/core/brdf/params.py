@@ -107,7 +107,8 @@ GS_HORIZON_EPS = 1e-7
 
 
 def _theta_axis(name: str, warp: str = "linear") -> Axis:
-    return Axis(name, 0.0, HALF_PI, periodic=False, warp=warp, horizon=name == "theta_i")
+    return Axis(name, 0.0, HALF_PI, periodic=False, warp=warp, horizon=name == "theta_i",
+                view_horizon=name == "theta_o")
 
 
 def _phi_axis(name: str) -> Axis:

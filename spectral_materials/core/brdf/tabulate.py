@@ -25,6 +25,7 @@ from ..colour import pipeline as colour_pipeline, spectra
 from ..colour.basis import LinearModelBasis
 from ..errors import InvalidBRDFData
 from ..progress import ProgressCallback, report
+from .axes import holds_horizon
 from .lobe import SpecularLobe
 from .params import Parameterization, axis_lookup, horizon_scale
 
@@ -77,17 +78,17 @@ class Grid:
                 for k, (a, n) in enumerate(zip(self.parameterization.axes, self.shape))]
 
     def edge_scale(self, coords: np.ndarray, edge: str = "linear") -> np.ndarray | None:
-        """The ``"horizon"`` rule's scale (N,) of a lookup at coords (N, d): the product of
-        :func:`.axes.horizon_scale` over the horizon axes; None under other rules or
-        without a horizon axis (nothing to scale)."""
+        """The ``"horizon"``/``"horizons"`` rule's scale (N,) of a lookup at coords (N, d):
+        the product of :func:`.axes.horizon_scale` over the axes the rule holds; None
+        where it holds none (nothing to scale)."""
         axes = self.parameterization.axes
-        if edge != "horizon" or not any(a.horizon for a in axes):
+        if not any(holds_horizon(a, edge) for a in axes):
             return None
         coords = np.asarray(coords, dtype=np.float64)
         scale = np.ones(coords.shape[0])
         for k, (a, n) in enumerate(zip(axes, self.shape)):
-            if a.horizon:
-                scale *= horizon_scale(a, n, coords[:, k])
+            if holds_horizon(a, edge):
+                scale *= horizon_scale(a, n, coords[:, k], edge)
         return scale
 
     def describe(self) -> dict:

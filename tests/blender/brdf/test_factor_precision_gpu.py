@@ -53,7 +53,7 @@ def test_fast_paths_match_their_mirror(factored, parameterization, precision):
         np.testing.assert_allclose(got[~bright], reference[~bright], rtol=1e-4, atol=2e-5)
 
 
-@pytest.mark.parametrize("edge", ["linear", "clamp", "horizon"])
+@pytest.mark.parametrize("edge", ["linear", "clamp", "horizon", "horizons"])
 def test_pads_draw_every_edge_rule(factored, edge):
     """At 80° the rim reads the pads: the filtered path follows its mirror there under
     every rule (whose pads the core tests prove equal to the exact lookup's rule), and

@@ -93,6 +93,20 @@ def test_edge_horizon(factored, parameterization):
     assert float(delta_e(a[..., :3], b[..., :3], "FL11").max()) > 10 * MAX_DE94
 
 
+@pytest.mark.parametrize("parameterization", ["io", "io_iso"])
+def test_edge_horizons(factored, parameterization):
+    """"horizons" takes the table to 0 as θo reaches 90° too: the shader follows the
+    mirror, and the silhouette, where θo passes the last cell centre, differs from
+    "horizon"."""
+    model = replace(factored(parameterization), edge="horizons")
+    for incidence, illuminant in CASES:
+        de, _ = _max_de(model, incidence, illuminant)
+        assert de <= MAX_DE94, f"{incidence}°: {de:.4g}"
+    a = render_sphere(model, 40.0, "FL11", SIZE)
+    b = render_sphere(replace(model, edge="horizon"), 40.0, "FL11", SIZE)
+    assert float(delta_e(a[..., :3], b[..., :3], "FL11").max()) > 2 * MAX_DE94
+
+
 def test_edge_horizon_without_a_theta_i_axis_is_linear(factored):
     """hd has no θi axis: "horizon" draws exactly what "linear" draws."""
     model = factored("hd")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from spectral_materials.core.brdf import models
+from spectral_materials.core.brdf.axes import holds_horizon
 from spectral_materials.core.brdf.factor import factor_brdf
 from spectral_materials.core.brdf.factored import FactoredBRDF
 from spectral_materials.core.brdf.filtered_factors import (
@@ -67,7 +68,7 @@ def test_quantize_by_hand():
         quantize(np.zeros(1), "bf16")
 
 
-@pytest.mark.parametrize("edge", ["linear", "clamp", "horizon"])
+@pytest.mark.parametrize("edge", ["linear", "clamp", "horizon", "horizons"])
 @pytest.mark.parametrize("parameterization,resolution", [
     ("io_iso", (8, 12, 8)), ("hd", (8, 6, 6, 8)), ("io", (6, 8, 6, 8))])
 def test_padded_lookup_is_the_edge_rule(edge, parameterization, resolution):
@@ -79,7 +80,7 @@ def test_padded_lookup_is_the_edge_rule(edge, parameterization, resolution):
     model.factors = [a + rng.normal(0, 0.3, a.shape) for a in model.factors]  # not smooth
     model.edge = edge
     axes = model.grid.parameterization.axes
-    padded = [edge_pads(a, ax.periodic, *end_rules(edge, ax.horizon))
+    padded = [edge_pads(a, ax.periodic, *end_rules(edge, holds_horizon(ax, edge)))
               for ax, a in zip(axes, model.factors)]
     fields = {k: getattr(model, k) for k in FactoredBRDF.__dataclass_fields__}
     mirror = FilteredFactorsBRDF(**fields, padded=padded, weight_bits=None)

@@ -139,3 +139,71 @@ def test_the_rule_survives_a_file_round_trip(tmp_path):
     assert back.edge == "horizon"
     wi, wo = _grazing_pairs(np.array([88.0, 89.9]))
     np.testing.assert_array_equal(back.coefficients(wi, wo), model.coefficients(wi, wo))
+
+
+# ------------------------------------------------ "horizons": the view's horizon too
+
+VIEW_THETA_O = Axis("theta_o", 0.0, math.pi / 2, periodic=False, view_horizon=True)
+
+
+def test_horizons_hold_the_view_axis_and_horizon_only_the_light_axis():
+    n = 10
+    v = np.linspace(0.0, math.pi / 2, 77)
+    # Under "horizons" θo behaves as θi does under "horizon"; under "horizon" it is linear.
+    for a, b in zip(axis_lookup(VIEW_THETA_O, n, v, edge="horizons"),
+                    axis_lookup(THETA_I, n, v, edge="horizon"), strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(horizon_scale(VIEW_THETA_O, n, v, "horizons"),
+                                  horizon_scale(THETA_I, n, v, "horizon"))
+    assert np.all(horizon_scale(VIEW_THETA_O, n, v, "horizon") == 1.0)
+    assert horizon_scale(VIEW_THETA_O, n, np.array([math.pi / 2]), "horizons")[0] == 0.0
+    assert np.all(horizon_scale(THETA_I, n, v, "horizons") == horizon_scale(THETA_I, n, v))
+    params = get_parameterization("io_iso", True)
+    assert [a.view_horizon for a in params.axes] == [False, False, True]
+    with pytest.raises(ValueError, match="no horizon"):
+        Axis("phi", 0.0, 1.0, periodic=True, view_horizon=True)
+
+
+def _view_grazing_errors(brdf, model, seed=5, n=4000):
+    """Mean |f·cosθi| error per band of θo (88–89.5°, 89.5–90°) against the model's own
+    values, θi uniform on the hemisphere."""
+    from spectral_materials.core.brdf import grazing, metrics
+
+    wi = metrics.uniform_hemisphere(np.random.default_rng(seed), n)
+    bands = []
+    for lo, hi in ((88.0, 89.5), (89.5, 90.0)):
+        _, wo = grazing.grazing_pairs(n, seed + 1, (lo, hi))
+        reference = brdf(wi, wo, model.wavelengths) * wi[:, 2:3]
+        bands.append(float(np.abs(model.evaluate_cosine_weighted(wi, wo) - reference).mean()))
+    return bands
+
+
+def test_automatic_takes_horizons_beside_a_glossy_lobe_and_keeps_horizon_on_oren_nayar():
+    from spectral_materials.core.brdf import grazing
+    from spectral_materials.core.brdf.factor import build_basis
+    from spectral_materials.core.brdf.job import FactorOptions, factor_material
+
+    options = FactorOptions(parameterization="io_iso", resolution=(16, 32, 16),
+                            isotropic=True, packs=2, lobe="auto", automatic=True,
+                            refine_theta=False)
+    glossy = models.make_model("ashikhmin_shirley", nu=32.0, nv=32.0, specular=0.05,
+                               diffuse=(spectra.WAVELENGTHS_REFERENCE,
+                                        spectra.colorchecker(12)))
+    job = factor_material(glossy, build_basis(glossy, spectra.WAVELENGTHS_REFERENCE, True, 6),
+                          options)
+    model = job.model
+    assert model.lobe is not None and model.edge == "horizons"
+    assert all(m.edge == "horizons" for m in job.models)
+    # On pairs the choice did not see, the error falls toward the view's horizon under
+    # "horizons" and not under "horizon".
+    kept = _view_grazing_errors(glossy, model)
+    other = _view_grazing_errors(glossy, FactoredBRDF(**{**model.__dict__, "edge": "horizon"}))
+    assert kept[1] < kept[0] and other[1] > other[0] and kept[1] < other[1]
+    clay = models.make_model("oren_nayar", sigma=0.52, albedo=0.6)
+    job = factor_material(clay, build_basis(clay, spectra.WAVELENGTHS_REFERENCE, True, 3),
+                          options)
+    assert job.model.edge == "horizon"
+    figures = job.model.report["view_horizon_de94"]
+    assert figures["horizon"] < figures["horizons"]
+    assert grazing.choose_edge(clay, [FactoredBRDF(**{**job.model.__dict__,
+                                                      "edge": "linear"})]) == {}
