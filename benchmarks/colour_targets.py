@@ -136,7 +136,7 @@ def build_cases() -> tuple[list[Case], dict]:
 
 
 def addon_options(case: Case, theta_cells: int, packs: int, lobe: str = DEFAULT_LOBE,
-                  refine_theta: bool = True) -> FactorOptions:
+                  horizon_choices: bool = True) -> FactorOptions:
     """``jobs.factor_options`` for a material with these settings (no ``bpy``): "Automatic"
     is half/difference for an anisotropic analytic glossy model without a lobe
     (``sources.resolve_auto``), input/output otherwise; the parameterisation's default
@@ -153,7 +153,7 @@ def addon_options(case: Case, theta_cells: int, packs: int, lobe: str = DEFAULT_
     return FactorOptions(parameterization=name, resolution=resolution,
                          isotropic=iso, packs=packs, target_de94=None,
                          pack_size=DEFAULT_PACK_SIZE, smoothing=DEFAULT_SMOOTHING, lobe=lobe,
-                         automatic=True, refine_theta=refine_theta,
+                         automatic=True, horizon_choices=horizon_choices,
                          plain_layout=None if plain[0] == name else plain[:2])
 
 
@@ -246,7 +246,8 @@ def run_case(case: Case, settings: str, theta_cells: int, packs: int,
             "lobe": None if lobe_model is None else {
                 "family": lobe_model.family, "nu": lobe_model.nu, "nv": lobe_model.nv},
             "lobe_report": {k: v for k, v in model.report.items() if "lobe" in k
-                            or k == "residual_anisotropy" or k.startswith("grazing")},
+                            or k == "residual_anisotropy" or k.startswith("grazing")
+                            or k == "view_horizon_de94"},
             "fit_seconds": float(job.series[-1]["seconds"]), "job_seconds": job.seconds,
             "bytes": model.nbytes, "errors": pairs.errors(model, reference),
             "curve": error_curve(job, pairs, reference)}

@@ -39,7 +39,7 @@ def main_table(result: dict, label: str = "after") -> list[str]:
 STAGES = (("original", "packs, linear edge (before issue 18)"),
           ("before", "packs, horizon edge rule"),
           ("lobe", "lobe + packs"),
-          ("after", "+ Automatic θ cells (now)"))
+          ("after", "+ Automatic θ cells and edge rule (now)"))
 
 
 def stage_table(result: dict) -> list[str]:
@@ -95,6 +95,11 @@ def lobe_table(result: dict) -> list[str]:
     return lines
 
 
+def _view_means(report: dict) -> str:
+    means = report.get("view_horizon_de94")
+    return "–" if not means else f"{means['horizon']:.3f} / {means['horizons']:.3f}"
+
+
 def theta_section(result: dict) -> list[str]:
     """Automatic θ cells (core/brdf/grazing.py): the grazing check and what it kept."""
     lines = [
@@ -102,9 +107,13 @@ def theta_section(result: dict) -> list[str]:
         "Under the Automatic layout the packs are measured at 2,000 seeded pairs with θi "
         "and θo in [80°, 89.5°) (not the protocol's); where their largest ΔE94 lies between "
         "2 and 20 the material is fitted again with twice the θ cells (at most 64), and that "
-        "fit is kept where it measures lower there (core/brdf/grazing.py).", "",
+        "fit is kept where it measures lower there. Then the edge rule at the view's "
+        "horizon: *horizons* (the table falls to 0 as θo reaches 90°, as θi's does) where "
+        "it measures a lower mean at 2,000 seeded pairs with θo in [85°, 90°) than "
+        "*horizon* (core/brdf/grazing.py).", "",
         "| case | settings | θ cells asked | grazing max, asked | grazing max, twice the "
-        "cells | kept | grid |", "|---|---|---|---|---|---|---|"]
+        "cells | kept | grid | view-horizon mean, horizon / horizons | edge rule |",
+        "|---|---|---|---|---|---|---|---|---|"]
     for row in result["rows"]:
         r = row["after"]
         rep = r["lobe_report"]
@@ -115,7 +124,8 @@ def theta_section(result: dict) -> list[str]:
             f"{'–' if coarse is None else f'{coarse:.2f}'} | "
             f"{'not tried' if finer is None else f'{finer:.2f}'} | "
             f"{'finer' if rep.get('grazing_refined') else 'as asked'} | "
-            f"{r['parameterization']} {'×'.join(map(str, r['resolution']))} |")
+            f"{r['parameterization']} {'×'.join(map(str, r['resolution']))} | "
+            f"{_view_means(rep)} | {r['edge']} |")
     return [*lines, ""]
 
 
@@ -181,7 +191,9 @@ def markdown(result: dict) -> list[str]:
         "the same packs under the horizon edge rule (core/brdf/axes.py, a lookup rule: no "
         "time, no bytes); and the add-on now, an analytic Ashikhmin–Shirley lobe beside "
         "packs of the rest (core/brdf/lobe.py), kept where it measures better; then the "
-        "same with Automatic θ cells.", "",
+        "same with Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ "
+        "cells where the error there is the cells', and the edge rule at the view's "
+        "horizon.", "",
         *stage_table(result), "",
         *theta_section(result),
         "## The lobe Automatic chose", "",

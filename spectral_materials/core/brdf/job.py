@@ -64,9 +64,9 @@ class FactorOptions:
     #: another layout for them (half/difference for an anisotropic glossy model); None:
     #: the same as with a lobe.
     plain_layout: tuple | None = None
-    #: Under ``automatic``: twice the θ cells where the packs' error near the horizon is
-    #: the cells' (core/brdf/grazing.py).
-    refine_theta: bool = True
+    #: Under ``automatic``: the choices at the horizon (core/brdf/grazing.py), twice the θ
+    #: cells where the packs' error there is the cells', and the view-horizon edge rule.
+    horizon_choices: bool = True
 
 
 @dataclass
@@ -119,7 +119,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                                                lobe_report)
     else:
         models = fit(lobe, 0.1, 0.9)
-    if options.automatic:
+    if options.automatic and options.horizon_choices:
         models, lobe_report = _automatic_horizon(brdf, models, options, lobe_report, fit,
                                                  lobe_options, plain_options, callback)
     report(callback, 0.95, "measuring ΔE94")
@@ -150,13 +150,11 @@ def _automatic_horizon(brdf, models: list[FactoredBRDF], options: FactorOptions,
     """Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ cells where
     the packs' error there is the cells', then the edge rule at the view's horizon."""
     report(callback, 0.9, "checking the horizon")
-    if options.refine_theta:
-        kept_lobe = models[-1].lobe
-        chosen = lobe_options if kept_lobe is not None else plain_options
-        models, refined = grazing.refine_theta(
-            brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
-        figures = {**figures, **refined}
-    return models, {**figures, **grazing.choose_edge(brdf, models)}
+    kept_lobe = models[-1].lobe
+    chosen = lobe_options if kept_lobe is not None else plain_options
+    models, refined = grazing.refine_theta(
+        brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
+    return models, {**figures, **refined, **grazing.choose_edge(brdf, models)}
 
 
 def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,

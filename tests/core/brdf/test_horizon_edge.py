@@ -184,8 +184,7 @@ def test_automatic_takes_horizons_beside_a_glossy_lobe_and_keeps_horizon_on_oren
     from spectral_materials.core.brdf.job import FactorOptions, factor_material
 
     options = FactorOptions(parameterization="io_iso", resolution=(16, 32, 16),
-                            isotropic=True, packs=2, lobe="auto", automatic=True,
-                            refine_theta=False)
+                            isotropic=True, packs=2, lobe="auto", automatic=True)
     glossy = models.make_model("ashikhmin_shirley", nu=32.0, nv=32.0, specular=0.05,
                                diffuse=(spectra.WAVELENGTHS_REFERENCE,
                                         spectra.colorchecker(12)))
