@@ -152,5 +152,5 @@ def choose_edge(brdf, models: list[FactoredBRDF]) -> dict:
     chosen = min(means, key=means.get)
     for model in models:
         model.edge = chosen
-    return {"edge": chosen, "view_horizon_de94": means,
+    return {"edge_choice": chosen, "view_horizon_de94": means,
             "edge_seconds": time.perf_counter() - start}

@@ -120,7 +120,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     else:
         models = fit(lobe, 0.1, 0.9)
     if options.automatic and options.horizon_choices:
-        models, lobe_report = _automatic_horizon(brdf, models, options, lobe_report, fit,
+        models, lobe_report = _automatic_horizon(brdf, models, lobe_report, fit,
                                                  lobe_options, plain_options, callback)
     report(callback, 0.95, "measuring ΔE94")
     series = _measured_series(models, error, lobe_report)
@@ -144,7 +144,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                              models=list(models) if options.target_de94 is None else [final])
 
 
-def _automatic_horizon(brdf, models: list[FactoredBRDF], options: FactorOptions,
+def _automatic_horizon(brdf, models: list[FactoredBRDF],
                        figures: dict, fit, lobe_options: FactorOptions,
                        plain_options: FactorOptions, callback) -> tuple[list, dict]:
     """Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ cells where

@@ -7,7 +7,8 @@ beyond the first or last centre of a θ axis the table is extrapolated linearly
 (``edge="linear"``, the default, measured better than holding the end value
 for ``f·cosθi``, which goes to 0 at the horizon) or held (``edge="clamp"``);
 ``edge="horizon"`` takes a cosine-weighted table to 0 at θi = 90° (``axes``), the
-rule new factor packs use.
+rule new factor packs use; ``edge="horizons"`` at θo = 90° as well, where the add-on's
+Automatic measures it better (``grazing.choose_edge``).
 
 The tabulated quantity is ``f·cosθi`` by default, as in Schwenk et al. (2010)
 §4: it is what a point light reflects, bounded at grazing angles, and it is

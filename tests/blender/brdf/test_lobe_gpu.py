@@ -72,8 +72,11 @@ def test_lobe_changes_the_image(lobe_models):
     assert delta_e(reference, without).max() <= MAX_DE94     # the mirror follows too
 
 
+@pytest.mark.parametrize("edge", ["horizon", "horizons"])
 @pytest.mark.parametrize("precontract", [True, False], ids=["precontract", "per_coefficient"])
-def test_lobe_under_several_lights(lobe_models, precontract):
+def test_lobe_under_several_lights(lobe_models, precontract, edge):
+    """Four light kinds at once, each light's θo scale included where the view's axes are
+    shared across lights ("horizons" holds θo as well as θi)."""
     lights = [SpectralLight("SUN", spd("D65"), WL, 1.0, axis=(-0.5, -0.2, -0.84)),
               SpectralLight("POINT", spd("FL2"), WL, 40.0, position=(1.5, 0.5, 2.0)),
               SpectralLight("SPOT", spd("A"), WL, 60.0, position=(-1.0, 1.0, 2.5),
@@ -82,8 +85,9 @@ def test_lobe_under_several_lights(lobe_models, precontract):
               SpectralLight("AREA", spd("FL11"), WL, 30.0, position=(0.2, -1.5, 1.5),
                             axis=(-0.1, 0.7, -0.7))]
     for name in ("io_iso", "io"):
-        got, reference = lights_pair(lobe_models[name], lights, precontract=precontract)
-        _check(got, reference, "D65", f"{name} {len(lights)} lights")
+        model = replace(lobe_models[name], edge=edge)
+        got, reference = lights_pair(model, lights, precontract=precontract)
+        _check(got, reference, "D65", f"{name} {len(lights)} lights, {edge}")
 
 
 def test_lobe_with_truncated_packs_and_filtered_factors(lobe_models):

@@ -229,11 +229,17 @@ AS_LOBE = "ashikhmin_shirley"
     # The analytic lobe's node frame: isotropic at a grazing light, anisotropic head-on.
     ("io_iso", (16, 32, 16), 75.0, "FL11", AS_LOBE),
     ("io", (12, 12, 12, 12), 20.0, "D65", AS_LOBE),
+    # The view's horizon held too ("horizons"): the silhouette's θo past the last centre.
+    ("io_iso", (16, 32, 16), 40.0, "D65", AS_LOBE + ":horizons"),
 ])
 def test_eevee_sphere_matches_the_python_evaluation(clean_scene, parameterization, resolution,
                                                     incidence, illuminant, lobe):
+    lobe, _, edge = (lobe or "").partition(":")
+    lobe = lobe or None
     model = _model(parameterization, resolution, lobe,
                    nv=32.0 if parameterization.endswith("_iso") else 96.0)
+    if edge:
+        model = replace(model, edge=edge)
     assert (model.lobe is not None) == (lobe is not None)
     xyz, facts = eevee_render.render_sphere_eevee(model, incidence, illuminant, 64)
     # Blender 4.x cannot change its working space (Linear Rec.709): rendered in that.

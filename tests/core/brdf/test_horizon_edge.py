@@ -206,3 +206,17 @@ def test_automatic_takes_horizons_beside_a_glossy_lobe_and_keeps_horizon_on_oren
     assert figures["horizon"] < figures["horizons"]
     assert grazing.choose_edge(clay, [FactoredBRDF(**{**job.model.__dict__,
                                                       "edge": "linear"})]) == {}
+
+
+def test_horizons_survive_a_file_round_trip(tmp_path):
+    brdf = models.make_model("lambert", albedo=0.5)
+    model = factor_brdf(brdf, parameterization="io_iso", resolution=(8, 16, 8), packs=1,
+                        wavelengths=WL)
+    model.edge = "horizons"
+    back = FactoredBRDF.load(model.save(tmp_path / "m.npz"))
+    assert back.edge == "horizons"
+    wi, wo = _grazing_pairs(np.array([30.0, 40.0]), 89.9)
+    np.testing.assert_array_equal(back.coefficients(wi, wo), model.coefficients(wi, wo))
+    # θo at 89.9° is past the last centre: the view's horizon takes the value toward 0.
+    horizon = FactoredBRDF(**{**model.__dict__, "edge": "horizon"}).coefficients(wi, wo)
+    assert np.all(np.abs(back.coefficients(wi, wo)) < 0.2 * np.abs(horizon))
