@@ -4,11 +4,12 @@
  * wrap between the last and first cells; other axes clamp the value into [lo, hi]
  * and, by edge rule, extrapolate linearly beyond the end centres (SM_EDGE_LINEAR),
  * hold them (SM_EDGE_CLAMP), or hold the last centre of a horizon axis and let
- * the returned scale take the lookup to 0 at hi (SM_EDGE_HORIZON on θi; SM_EDGE_HORIZONS
- * on θi and θo: axes.holds_horizon, axes.horizon_scale).
- * flags: bit 0 periodic, bit 1 square-root warp, bit 2 horizon axis (θi), bit 3 view-
- * horizon axis (θo).
- * SM_EDGE_<RULE> are defined per variant from axes.EDGE_RULES (gpu/shaders.py). */
+ * the returned scale take the lookup to 0 at hi (SM_EDGE_HORIZON on θi, SM_EDGE_HORIZONS
+ * on θi and θo: axes.horizon_scale).
+ * flags: bit 0 periodic, bit 1 square-root warp, bit 2 the model's edge rule holds this
+ * axis's horizon (axes.holds_horizon, decided on the CPU by gpu_material.py, so that the
+ * pixel tests one bit per axis). SM_EDGE_<RULE> are defined per variant from
+ * axes.EDGE_RULES (gpu/shaders.py). */
 
 /* The axis value as x = u·cells − 0.5, u the warped unit coordinate. */
 float sm_axis_x(float v, float lo, float span, int flags, int cells)
@@ -28,17 +29,16 @@ float sm_axis_x(float v, float lo, float span, int flags, int cells)
   return t * float(cells) - 0.5;
 }
 
-/* axes.holds_horizon: whether the edge rule takes this axis to 0 at hi. */
-bool sm_holds_horizon(int flags, int edge)
+/* axes.holds_horizon: whether the edge rule takes this axis to 0 at hi (flag bit 2). */
+bool sm_holds_horizon(int flags)
 {
-  return ((flags & 4) != 0 && (edge == SM_EDGE_HORIZON || edge == SM_EDGE_HORIZONS)) ||
-         ((flags & 8) != 0 && edge == SM_EDGE_HORIZONS);
+  return (flags & 4) != 0;
 }
 
 /* axes.horizon_scale's value at x (1 unless the rule holds this axis's horizon). */
 float sm_horizon_scale(float x, int flags, int cells, int edge)
 {
-  if (sm_holds_horizon(flags, edge)) {
+  if (sm_holds_horizon(flags)) {
     return clamp(2.0 * (float(cells) - 0.5 - x), 0.0, 1.0);
   }
   return 1.0;
@@ -71,7 +71,7 @@ void sm_axis_lookup(float v, float lo, float span, int flags, int cells, int edg
     if (edge == SM_EDGE_CLAMP) {
       w = clamp(w, 0.0, 1.0);
     }
-    else if (sm_holds_horizon(flags, edge)) {
+    else if (sm_holds_horizon(flags)) {
       w = min(w, 1.0);
     }
   }

@@ -5,7 +5,7 @@
 struct SmParams {
   vec4 axis_lo;          /* per angular axis: lower end */
   vec4 axis_span;        /* per angular axis: hi − lo (the period of an azimuth) */
-  ivec4 axis_flags;      /* bit 0 periodic, bit 1 square-root warp, bit 2 horizon (θi), bit 3 view horizon (θo) */
+  ivec4 axis_flags;      /* bit 0 periodic, bit 1 square-root warp, bit 2 the edge rule holds the horizon */
   ivec4 axis_cells;      /* cells per axis (1 for unused axes) */
   ivec4 misc;            /* x: edge rule (SM_EDGE_*), y: texel rows per axis */
   vec4 display;          /* x: exposure, y: tone-map white, zw: target size (sphere) */

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.brdf.axes import EDGE_RULES
+from ...core.brdf.axes import EDGE_RULES, holds_horizon
 from ...core.brdf.factored import FactoredBRDF
 from ...core.brdf.filtered_factors import drawn_model
 from ...core.brdf.shading import LOBE_TEXELS, light_row_texels, light_texels, lobe_texel
@@ -55,7 +55,7 @@ class MaterialUniforms:
             axis_lo=tuple(float(a.lo) for a in axes) + (0.0,) * pad,
             axis_span=tuple(float(a.span) for a in axes) + (1.0,) * pad,
             axis_flags=tuple(int(a.periodic) | (2 if a.warp == "sqrt" else 0)
-                             | (4 if a.horizon else 0) | (8 if a.view_horizon else 0)
+                             | (4 if holds_horizon(a, model.edge) else 0)
                              for a in axes) + (0,) * pad,
             axis_cells=tuple(int(n) for n in model.grid.shape) + (1,) * pad,
             edge_rule=EDGE_RULES.index(model.edge),
