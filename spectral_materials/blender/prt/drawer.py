@@ -322,6 +322,41 @@ def _drawn_albedo(entry: dict, layers, form: str, light: np.ndarray) -> DrawnAlb
     return drawn
 
 
+def _albedo_resources(entry: dict, obj, scene, state, rgb: bool):
+    """The object's albedo texture (and its uniform buffer) in ``entry``, rebuilt when its
+    layers, the mode, the form or the scene light Automatic checks under change; returns
+    the layers."""
+    import gpu
+
+    layers = prt.albedo_layers(obj, scene)
+    form = obj.spectral_prt.albedo_texture.lower()
+    light = _scene_light(state)
+    # RGB PRT draws one RGB layer whatever the form; spectral, the form checked under the
+    # scene's light.
+    albedo_key = (layers.key, True) if rgb else (layers.key, False, form, light.tobytes())
+    if entry.get("albedo_key") != albedo_key:
+        if rgb:
+            source = prt.albedo_source(obj)
+            data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
+            entry["albedo_drawn"] = None
+            entry["albedo"] = array_texture(data)
+            entry["albedo_size"] = (data.shape[2], data.shape[1])
+        else:
+            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form, light)
+            if drawn.basis is not None:
+                entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
+                    albedo_basis_texels(drawn.basis, layers.layers.shape[0]).tobytes())
+            elif drawn.unorm16 is not None:
+                entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
+                    drawn.unorm16.range_texels().tobytes())
+            entry["albedo"] = array_texture(drawn.texels(), filtered=drawn.filtered,
+                                            texture_format=drawn.texture_format)
+            # The shader's sizes are the albedo's own, less any wrap padding.
+            entry["albedo_size"] = (layers.layers.shape[2], layers.layers.shape[1])
+        entry["albedo_key"] = albedo_key
+    return layers
+
+
 def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
     """The object's batch and textures, rebuilt piecewise when their inputs change."""
     import gpu
@@ -361,32 +396,7 @@ def _object_resources(obj, scene, depsgraph, rgb: bool) -> dict:
         entry["environment"] = texels
         entry["environment_gpu"] = {}
         entry["env_key"] = env_key
-    layers = prt.albedo_layers(obj, scene)
-    form = obj.spectral_prt.albedo_texture.lower()
-    light = _scene_light(state)
-    # RGB PRT draws one RGB layer whatever the form; spectral, the form checked under the
-    # scene's light.
-    albedo_key = (layers.key, True) if rgb else (layers.key, False, form, light.tobytes())
-    if entry.get("albedo_key") != albedo_key:
-        if rgb:
-            source = prt.albedo_source(obj)
-            data = core_prt.rgb_albedo(source.spectra(), prt.WAVELENGTHS)[None]
-            entry["albedo_drawn"] = None
-            entry["albedo"] = array_texture(data)
-            entry["albedo_size"] = (data.shape[2], data.shape[1])
-        else:
-            drawn = entry["albedo_drawn"] = _drawn_albedo(entry, layers, form, light)
-            if drawn.basis is not None:
-                entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
-                    albedo_basis_texels(drawn.basis, layers.layers.shape[0]).tobytes())
-            elif drawn.unorm16 is not None:
-                entry["albedo_buffer"] = gpu.types.GPUUniformBuf(
-                    drawn.unorm16.range_texels().tobytes())
-            entry["albedo"] = array_texture(drawn.texels(), filtered=drawn.filtered,
-                                            texture_format=drawn.texture_format)
-            # The shader's sizes are the albedo's own, less any wrap padding.
-            entry["albedo_size"] = (layers.layers.shape[2], layers.layers.shape[1])
-        entry["albedo_key"] = albedo_key
+    layers = _albedo_resources(entry, obj, scene, state, rgb)
     entry["coefficients"] = 3 if rgb else layers.layers.shape[0]
     return entry
 
