@@ -132,6 +132,24 @@ def albedo_precision_lines(cases: dict, precision: Path | None) -> list[str]:
     return [*lines, ""]
 
 
+def final_shader_lines(cases: dict, later: dict | None, source: str) -> list[str]:
+    """The factor-pack draws replayed again with later shaders, against this replay."""
+    if later is None:
+        return []
+    lines = ["## Factor-pack draws with the final shaders", "",
+             f"`{source}`: the same draws exported after the edge rule *horizons* changed "
+             "glsl/brdf/axis_lookup.glsl (the CPU sets the flag saying whether the rule holds "
+             "an axis's horizon), replayed on the same kind of GPU.", "",
+             "| case | ms / frame, this replay | ms / frame, final shaders | × |",
+             "|---|---|---|---|"]
+    for c in later["cases"]:
+        name = c["name"]
+        if name in cases and "draw_ms" in c["runs"].get("blender", {}):
+            lines.append(f"| `{name}` | {_ms(cases[name]):.3f} | {_ms(c):.3f} | "
+                         f"{_ms(c) / _ms(cases[name]):.3f} |")
+    return [*lines, ""]
+
+
 def btf_table(cases: dict) -> list[str]:
     lines = ["| case | ms / frame | × baseline (same run) |", "|---|---|---|"]
     names = ("btf_rfp_l1", "btf_rfnl_l1", "btf_rfp_l4", "btf_rfnl_l4")
@@ -169,8 +187,8 @@ def agreement_table(cases: dict) -> list[str]:
 
 
 def markdown(results: dict, source: str, explored: list[dict] | None = None,
-             prt_paths: list[dict] | None = None,
-             precision: Path | None = None) -> list[str]:
+             prt_paths: list[dict] | None = None, precision: Path | None = None,
+             later: dict | None = None, later_source: str = "") -> list[str]:
     cases = {c["name"]: c for c in results["cases"]}
     m, e = results["machine"], results["export"]
     return [
@@ -192,6 +210,7 @@ def markdown(results: dict, source: str, explored: list[dict] | None = None,
         "## Spectral against RGB PRT (m = 8, bands 5, 512²)", "",
         *prt_table(cases), "",
         *albedo_precision_lines(cases, precision),
+        *final_shader_lines(cases, later, later_source),
         "## BTF (800², texels blended across their edges)", "",
         *btf_table(cases), "",
         *(["## Variants timed on the way (`patch_cases.py --set explored`)", "",
@@ -224,7 +243,8 @@ def markdown(results: dict, source: str, explored: list[dict] | None = None,
 def page(results_path: str, explored_paths: list[str] | None = None) -> str:
     """docs/bench_gpu.md's text for ``results_path``: with the replays beside it of the
     explored (``*_explored_*.json``) and PRT-path (``*_prt_paths_*.json``) variants and
-    the albedo precisions (``*_albedo_precision.npz``)."""
+    the albedo precisions (``*_albedo_precision.npz``) and a later replay of the draws
+    (``*_final_shader_draws.json``)."""
     folder = Path(results_path).parent
     results = json.loads(Path(results_path).read_text())
     if explored_paths is None:
@@ -232,8 +252,11 @@ def page(results_path: str, explored_paths: list[str] | None = None) -> str:
     explored = [json.loads(Path(p).read_text()) for p in explored_paths]
     prt_paths = [json.loads(p.read_text()) for p in sorted(folder.glob("*_prt_paths_*.json"))]
     precision = sorted(folder.glob("*_albedo_precision.npz"))
+    later = sorted(folder.glob("*_final_shader_draws.json"))
     return "\n".join(markdown(results, results_path, explored, prt_paths,
-                               precision[-1] if precision else None))
+                               precision[-1] if precision else None,
+                               json.loads(later[-1].read_text()) if later else None,
+                               str(later[-1]) if later else ""))
 
 
 def main(argv: list[str] | None = None) -> None:
