@@ -59,18 +59,6 @@ def grazing_pairs(count: int = GRAZING_PAIRS, seed: int = GRAZING_SEED,
     return directions(), directions()
 
 
-class GrazingCheck:
-    """ΔE94 (D65) of a model at :func:`grazing_pairs`, the 5 nm reference computed once."""
-
-    def __init__(self, brdf):
-        self.wi, self.wo = grazing_pairs()
-        self.reference = metrics.reference_xyz(brdf, self.wi, self.wo, "D65")
-
-    def max_de94(self, model) -> float:
-        return float(metrics.delta_e94_stats(
-            self.reference, model.xyz(self.wi, self.wo, "D65"), "D65")["max"])
-
-
 def theta_cells(parameterization: str, isotropic: bool | None,
                 resolution: tuple[int, ...] | None) -> int:
     """θ cells per 90° of ``resolution`` (the parameterisation's default grid if None), read
@@ -102,8 +90,8 @@ def refine_theta(brdf, models: list[FactoredBRDF], options,
     if finer is None:
         return models, {"grazing_refined": False}
     start = time.perf_counter()
-    check = GrazingCheck(brdf)
-    coarse = check.max_de94(final)
+    check = metrics.ProtocolError(brdf, pairs=grazing_pairs())
+    coarse = float(check.stats(final)["max"])
     checking = time.perf_counter() - start
     figures = {"grazing_refined": False, "grazing_max_de94": coarse,
                "grazing_seconds": checking}
@@ -112,7 +100,7 @@ def refine_theta(brdf, models: list[FactoredBRDF], options,
     candidates = refit(replace(options, parameterization=final.parameterization,
                                resolution=finer))
     start = time.perf_counter()
-    fine = check.max_de94(candidates[-1])
+    fine = float(check.stats(candidates[-1])["max"])
     checking += time.perf_counter() - start
     kept = fine < coarse
     # The check's own time and the fit of the series not kept.
@@ -142,13 +130,9 @@ def choose_edge(brdf, models: list[FactoredBRDF]) -> dict:
     if final.edge != "horizon" or not any(a.view_horizon for a in axes):
         return {}
     start = time.perf_counter()
-    wi, wo = view_horizon_pairs()
-    reference = metrics.reference_xyz(brdf, wi, wo, "D65")
-    means = {}
-    for edge in ("horizon", "horizons"):
-        model = replace(final, edge=edge)
-        means[edge] = float(metrics.delta_e94_stats(
-            reference, model.xyz(wi, wo, "D65"), "D65")["mean"])
+    check = metrics.ProtocolError(brdf, pairs=view_horizon_pairs())
+    means = {edge: float(check.stats(replace(final, edge=edge))["mean"])
+             for edge in ("horizon", "horizons")}
     chosen = min(means, key=means.get)
     for model in models:
         model.edge = chosen

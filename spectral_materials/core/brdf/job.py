@@ -235,6 +235,6 @@ def residual_layout(brdf, lobe: SpecularLobe, basis: LinearModelBasis | None,
     figures["residual_anisotropy"] = anisotropy
     if anisotropy > ISOTROPIC_RESIDUAL:
         return options
-    theta_cells = (options.resolution or get_parameterization("io").default_resolution)[0]
+    theta_cells = grazing.theta_cells("io", False, options.resolution)
     return replace(options, parameterization="io_iso", isotropic=True,
                    resolution=get_parameterization("io", True).theta_resolution(theta_cells))

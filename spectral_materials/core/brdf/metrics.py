@@ -124,10 +124,12 @@ class ProtocolError:
     """ΔE94 under D65 at the protocol's random pairs, the 5 nm reference computed once.
 
     ``stats(model)`` measures any model with an ``xyz(wi, wo, illuminant)`` method.
+    ``pairs`` (wi, wo): measure there instead (the Automatic checks near the horizon).
     """
 
-    def __init__(self, brdf, count: int = RANDOM_PAIRS, seed: int = RANDOM_PAIRS_SEED):
-        self.wi, self.wo = random_direction_pairs(count, seed)
+    def __init__(self, brdf, count: int = RANDOM_PAIRS, seed: int = RANDOM_PAIRS_SEED,
+                 pairs: tuple[np.ndarray, np.ndarray] | None = None):
+        self.wi, self.wo = random_direction_pairs(count, seed) if pairs is None else pairs
         self.reference = reference_xyz(brdf, self.wi, self.wo, "D65")
 
     def stats(self, model) -> dict:

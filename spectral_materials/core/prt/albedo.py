@@ -40,7 +40,7 @@ from ..colour import spectra
 from . import transfer as prt
 
 #: Texels converted per block (bounds the float64 temporaries to a few tens of MB).
-_TEXELS_PER_BLOCK = 1 << 16
+TEXELS_PER_BLOCK = 1 << 16
 
 
 @dataclass
@@ -121,8 +121,8 @@ def _apply(values: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     flat = values.reshape(-1, k)
     matrix = kernel.reshape(k, m * 3)
     out = np.empty((flat.shape[0], m * 3), dtype=np.float32)
-    for begin in range(0, flat.shape[0], _TEXELS_PER_BLOCK):
-        block = slice(begin, begin + _TEXELS_PER_BLOCK)
+    for begin in range(0, flat.shape[0], TEXELS_PER_BLOCK):
+        block = slice(begin, begin + TEXELS_PER_BLOCK)
         out[block] = flat[block].astype(np.float64) @ matrix
     return np.ascontiguousarray(out.reshape(height, width, m, 3).transpose(2, 0, 1, 3))
 
@@ -213,8 +213,8 @@ def albedo_layers_from_rgb(rgb: np.ndarray, wavelengths: np.ndarray,
     height, width = values.shape[:2]
     flat = values.reshape(-1, 3)
     out = np.empty((flat.shape[0], kernel.shape[1]), dtype=np.float32)
-    for begin in range(0, flat.shape[0], _TEXELS_PER_BLOCK):
-        block = slice(begin, begin + _TEXELS_PER_BLOCK)
+    for begin in range(0, flat.shape[0], TEXELS_PER_BLOCK):
+        block = slice(begin, begin + TEXELS_PER_BLOCK)
         out[block] = uplift(flat[block], wl) @ kernel
     layers = np.ascontiguousarray(out.reshape(height, width, -1, 3).transpose(2, 0, 1, 3))
     return AlbedoLayers(layers, wl.copy(), basis_array, source)
@@ -269,8 +269,8 @@ def read_reflectance_exr(path: str | Path, wavelengths: np.ndarray) -> np.ndarra
     height, width, count = image.values.shape
     flat = image.values.reshape(-1, count)
     out = np.empty((flat.shape[0], wl.size), dtype=np.float32)
-    for begin in range(0, flat.shape[0], _TEXELS_PER_BLOCK):
-        block = slice(begin, begin + _TEXELS_PER_BLOCK)
+    for begin in range(0, flat.shape[0], TEXELS_PER_BLOCK):
+        block = slice(begin, begin + TEXELS_PER_BLOCK)
         out[block] = flat[block].astype(np.float64) @ matrix
     return out.reshape(height, width, wl.size)
 

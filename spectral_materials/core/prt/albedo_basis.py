@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .albedo import AlbedoLayers, packed_layer_count, wrap_padded
+from .albedo import TEXELS_PER_BLOCK, AlbedoLayers, packed_layer_count, wrap_padded
 from .albedo_colour import COLOUR_BOUND_DE94, layers_colour_error
 
 #: Relative Frobenius error of the truncated layers against the full ones. At m = 8 it
@@ -45,7 +45,6 @@ from .albedo_colour import COLOUR_BOUND_DE94, layers_colour_error
 DEFAULT_TOLERANCE = 1e-4
 #: Most weights per texel the shader reads (four RGBA layers).
 MAX_RANK = 16
-_TEXELS_PER_BLOCK = 1 << 16
 
 
 @dataclass
@@ -122,8 +121,8 @@ def _principal_axes(layers: np.ndarray) -> _PrincipalAxes:
     if not np.isfinite(flat).all():
         raise ValueError("albedo layers hold non-finite (NaN/inf) values")
     gram = np.zeros((3 * m, 3 * m))
-    for begin in range(0, h * w, _TEXELS_PER_BLOCK):
-        block = flat[begin:begin + _TEXELS_PER_BLOCK].astype(np.float64)
+    for begin in range(0, h * w, TEXELS_PER_BLOCK):
+        block = flat[begin:begin + TEXELS_PER_BLOCK].astype(np.float64)
         gram += block.T @ block
     energy, vectors = np.linalg.eigh(gram)
     return _PrincipalAxes(flat, (m, h, w), np.clip(energy[::-1], 0.0, None), vectors[:, ::-1])
@@ -155,10 +154,10 @@ def _truncated(axes: _PrincipalAxes, tolerance: float, rank: int | None) -> Albe
     drawn = basis.astype(np.float32).astype(np.float64)      # the mixing as stored
     weights = np.empty((h * w, rank), dtype=np.float32)
     worst = 0.0
-    for begin in range(0, h * w, _TEXELS_PER_BLOCK):
-        block = axes.flat[begin:begin + _TEXELS_PER_BLOCK].astype(np.float64)
+    for begin in range(0, h * w, TEXELS_PER_BLOCK):
+        block = axes.flat[begin:begin + TEXELS_PER_BLOCK].astype(np.float64)
         coords = block @ basis
-        weights[begin:begin + _TEXELS_PER_BLOCK] = coords
+        weights[begin:begin + TEXELS_PER_BLOCK] = coords
         rebuilt = coords.astype(np.float32).astype(np.float64) @ drawn.T
         worst = max(worst, float(np.abs(rebuilt - block).max()))
     scale = float(np.abs(axes.flat).max())

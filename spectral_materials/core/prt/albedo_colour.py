@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .albedo import AlbedoLayers, albedo_layers_from_spectra
+from .albedo import TEXELS_PER_BLOCK, AlbedoLayers, albedo_layers_from_spectra
 
 #: The largest ΔE94 a drawn form may make against the layers, per texel, under each of
 #: :data:`COLOUR_ILLUMINANTS` (the factor precisions' *Automatic* bound).
 COLOUR_BOUND_DE94 = 0.05
 COLOUR_ILLUMINANTS = ("D65", "FL11", "A")
-_TEXELS_PER_BLOCK = 1 << 16
 
 
 def layers_colour_error(albedo: AlbedoLayers, drawn: np.ndarray,
@@ -60,8 +59,8 @@ def layers_colour_error(albedo: AlbedoLayers, drawn: np.ndarray,
         if not white[1] > 0.0:
             continue
         light, white = light / white[1], white / white[1]          # white Y = 1
-        for begin in range(0, h * w, _TEXELS_PER_BLOCK):
-            block = slice(begin, begin + _TEXELS_PER_BLOCK)
+        for begin in range(0, h * w, TEXELS_PER_BLOCK):
+            block = slice(begin, begin + TEXELS_PER_BLOCK)
             xyz = np.einsum("j,jtc->tc", light, full[:, block].astype(np.float64))
             approx = np.einsum("j,jtc->tc", light, drawn[:, block].astype(np.float64))
             de = delta_e94(xyz, approx, white)
