@@ -25,15 +25,6 @@ GROUPS = {"prt_spectral_m8_layers": "ColorChecker chart",
           "prt_image_spectral_m8_layers": "RGB image"}
 
 
-def fl4_white() -> np.ndarray:
-    from spectral_materials.core.colour.pipeline import illuminant_spd
-    from spectral_materials.core.colour.spectra import WAVELENGTHS_REFERENCE, cmfs
-
-    wl = WAVELENGTHS_REFERENCE
-    xyz = np.asarray(cmfs(wl)).reshape(-1, 3).T @ illuminant_spd("FL4", wl)
-    return xyz / xyz[1]
-
-
 def _stored(data: Path | None, images: Path) -> tuple[dict, dict]:
     """(GPU images by case, exact references by ``*_layers`` case): from a folder of
     ``.npy`` and the export's refs, or from an .npz :func:`pack` wrote."""
@@ -55,9 +46,10 @@ def _stored(data: Path | None, images: Path) -> tuple[dict, dict]:
 
 
 def precision_rows(gpu: dict, refs: dict) -> list[dict]:
-    from spectral_materials.core.colour.pipeline import delta_e94
+    from spectral_materials.core.colour.pipeline import delta_e94, white_xyz
+    from spectral_materials.core.colour.spectra import WAVELENGTHS_REFERENCE
 
-    white = fl4_white()
+    white = white_xyz("FL4", WAVELENGTHS_REFERENCE)
     rows = []
     for base, albedo in GROUPS.items():
         exact = refs[base]
