@@ -9,8 +9,9 @@ ridge narrower than a cell: Red clay reached ΔE94 7.0 at θi ≈ θo ≈ 89.3°
 :data:`GRAZING_RANGE_DEG` (never the protocol's) and, where their largest ΔE94 lies in
 (:data:`REFINE_ABOVE`, :data:`REFINE_BELOW`), fits again with twice the θ cells (where
 that is at most :data:`MAX_THETA_CELLS`) and keeps
-that fit where it measures lower there. Above :data:`REFINE_BELOW` the error is not the
-cells' (the MERL round trip: 114 at 32 cells, 55 at 64, after 9× the time).
+that fit where it measures lower there. Above :data:`REFINE_BELOW` no refit is spent:
+an error that large is not the cells' (the MERL round trip measures 114 there,
+docs/bench_colour_targets.md).
 
 Then :func:`choose_edge` picks the lookup's edge rule at the view's horizon, which costs
 no fit: ``"horizons"`` (the table falls to 0 as θo reaches 90°, as a layered surface's

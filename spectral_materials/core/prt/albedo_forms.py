@@ -21,11 +21,13 @@ multiply-adds cost more than the fetches they save. ``"auto"`` takes the first f
 scene's own light (:func:`.albedo_colour.layers_colour_error`).
 
 Why not half floats. RGBA16F draws as fast, but its 11 significant bits move a value by
-up to 2⁻¹¹ of itself, and a* and b* weigh X/Y and Z/Y differences by 500/3 and 200/3: a
-bright neutral moved by ΔE94 0.07 under A. Storing the first layer's rounding error in
-one more half layer fixed that on llvmpipe, but not on the H200, whose texture unit
-returns filtered half texels at half precision: a smooth RGB image drawn that way was
-ΔE94 0.028 / 0.065 / 0.31 (mean / p95 / max) from the exact layers, against
+up to 2⁻¹¹ of itself, and a* and b* weigh X/Y and Z/Y differences by 500/3 and 200/3:
+the chart's texels moved by more than ΔE94 0.04 under each of D65, FL11, A, FL2 and FL4
+(tests/core/prt/test_albedo_forms.py), against at most 0.01 as RGBA16. Storing the
+first layer's rounding error in one more half layer fixed that on llvmpipe, but not on
+the H200, whose texture unit returns filtered half texels at half precision: a smooth RGB
+image drawn that way was ΔE94 0.028 / 0.065 / 0.31 (mean / p95 / max) from the exact
+layers, against
 0.0017 / 0.0047 / 0.107 as RGBA16 (the max is the exact layers' own, at silhouettes;
 ``docs/bench_gpu.md``, "Albedo precisions"). 16 bits over each component's range
 step by 1/65535 of it.
