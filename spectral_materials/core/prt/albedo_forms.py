@@ -27,10 +27,9 @@ the chart's texels moved by more than ΔE94 0.04 under each of D65, FL11, A, FL2
 first layer's rounding error in one more half layer fixed that on llvmpipe, but not on
 the H200, whose texture unit returns filtered half texels at half precision: a smooth RGB
 image drawn that way was ΔE94 0.028 / 0.065 / 0.31 (mean / p95 / max) from the exact
-layers, against
-0.0017 / 0.0047 / 0.107 as RGBA16 (the max is the exact layers' own, at silhouettes;
-``docs/bench_gpu.md``, "Albedo precisions"). 16 bits over each component's range
-step by 1/65535 of it.
+layers, against 0.0017 / 0.0047 / 0.107 as RGBA16 (the max is the exact layers' own, at
+silhouettes; ``docs/bench_gpu.md``, "Albedo precisions"). 16 bits over each component's
+range step by 1/65535 of it.
 """
 
 from __future__ import annotations
