@@ -6,10 +6,12 @@ pairs) under D65 and FL11, mean / p95 / max below 89.5° / max beyond, the mean 
 band of max(θi, θo), the fitting seconds and the texture bytes, each row marked against the
 issue's goals (mean ≤ 0.5, p95 ≤ 1.0, max ≤ 5 below 89.5°). Measurement only.
 
-Each case is factored twice in the same run: as the add-on does now (*after*: the specular
-lobe on Automatic, core/brdf/lobe.py) and with packs alone and the Automatic
-parameterisation as it was (*before*); the packs alone are also measured under the linear
-edge rule, the state before issue 18. Error against time compares the two fits.
+Each case is factored in stages in the same run: packs alone with the Automatic
+parameterisation as it was (*before*; also measured under the linear edge rule, the state
+before issue 18), with the specular lobe on Automatic (core/brdf/lobe.py), with
+Automatic's choices at the horizon (core/brdf/grazing.py), and as the add-on factors it now
+(*after*: a measured table drawn in its cells, core/brdf/measured_cells.py; the earlier
+stages draw it smooth). Error against time compares *before* and *after*.
 
 Cases:
 
@@ -48,7 +50,7 @@ from spectral_materials.core.brdf.factor import (
     resolve_parameterization,
     sample_brdf_spectra,
 )
-from spectral_materials.core.brdf.job import FactorOptions, factor_material
+from spectral_materials.core.brdf.job import FactorOptions, drawn_cells, factor_material
 from spectral_materials.core.brdf.params import get_parameterization
 from spectral_materials.core.colour import scene_basis, spectra
 
@@ -136,7 +138,7 @@ def build_cases() -> tuple[list[Case], dict]:
 
 
 def addon_options(case: Case, theta_cells: int, packs: int, lobe: str = DEFAULT_LOBE,
-                  horizon_choices: bool = True) -> FactorOptions:
+                  horizon_choices: bool = True, cells: str = "auto") -> FactorOptions:
     """``jobs.factor_options`` for a material with these settings (no ``bpy``): "Automatic"
     is half/difference for an anisotropic analytic glossy model without a lobe
     (``sources.resolve_auto``), input/output otherwise; the parameterisation's default
@@ -154,7 +156,7 @@ def addon_options(case: Case, theta_cells: int, packs: int, lobe: str = DEFAULT_
                          isotropic=iso, packs=packs, target_de94=None,
                          pack_size=DEFAULT_PACK_SIZE, smoothing=DEFAULT_SMOOTHING, lobe=lobe,
                          automatic=True, horizon_choices=horizon_choices,
-                         plain_layout=None if plain[0] == name else plain[:2])
+                         plain_layout=None if plain[0] == name else plain[:2], cells=cells)
 
 
 def choose_basis(cases: list[Case], lights: dict[str, str]) -> scene_basis.SceneBasisChoice:
@@ -230,32 +232,46 @@ def run_case(case: Case, settings: str, theta_cells: int, packs: int,
     row = {"case": case.name, "note": case.note, "settings": settings,
            "basis_size": choice.size, "basis_max_de94": choice.max_de94}
     # Packs alone at the θ cells asked for; with the lobe; with the lobe and Automatic θ
-    # cells (the add-on now).
-    for label, lobe, refine in (("before", "off", False), ("lobe", DEFAULT_LOBE, False),
-                                ("after", DEFAULT_LOBE, True)):
-        options = addon_options(case, theta_cells, packs, lobe, refine)
+    # cells; drawn in a measured table's cells (the add-on now), all drawn smooth before.
+    for label, lobe, refine, cells in (("before", "off", False, "smooth"),
+                                       ("lobe", DEFAULT_LOBE, False, "smooth"),
+                                       ("horizon", DEFAULT_LOBE, True, "smooth"),
+                                       ("after", DEFAULT_LOBE, True, "auto")):
+        if label == "after" and drawn_cells(case.brdf, cells) is None:
+            row[label] = row["horizon"]        # not a table looked up in cells: the same fit
+            continue
+        options = addon_options(case, theta_cells, packs, lobe, refine, cells)
         harness.log(f"{case.name} ({settings}, {label}): {options.parameterization} "
                     f"{options.resolution}, {options.packs} packs, lobe {lobe}, "
-                    f"basis {choice.size}")
-        job = factor_material(case.brdf, choice.basis, options)
-        model = job.model
-        lobe_model = model.lobe
-        row[label] = {
-            "parameterization": model.parameterization, "resolution": list(model.resolution),
-            "packs": model.packs, "edge": model.edge,
-            "lobe": None if lobe_model is None else {
-                "family": lobe_model.family, "nu": lobe_model.nu, "nv": lobe_model.nv},
-            "lobe_report": {k: v for k, v in model.report.items() if "lobe" in k
-                            or k == "residual_anisotropy" or k.startswith("grazing")
-                            or k == "view_horizon_de94"},
-            "fit_seconds": float(job.series[-1]["seconds"]), "job_seconds": job.seconds,
-            "bytes": model.nbytes, "errors": pairs.errors(model, reference),
-            "curve": error_curve(job, pairs, reference)}
+                    f"basis {choice.size}, cells {cells}")
+        row[label] = _stage(factor_material(case.brdf, choice.basis, options), pairs,
+                            reference)
         if label == "before":
             # The edge rule is a lookup rule: the same packs under the rule before it.
-            row["original"] = {"errors": pairs.errors(replace(model, edge="linear"),
-                                                      reference)}
+            row["original"] = {"errors": pairs.errors(replace(row["before"]["model"],
+                                                              edge="linear"), reference)}
+    for label in ("before", "lobe", "horizon", "after"):
+        row[label].pop("model", None)
     return row
+
+
+def _stage(job, pairs: Pairs, reference: dict) -> dict:
+    """One stage's figures: the stored model's layout, lobe, choices, seconds, bytes,
+    errors and error-against-time curve (and the model, for the caller to drop)."""
+    model = job.model
+    lobe_model = model.lobe
+    return {
+        "parameterization": model.parameterization, "resolution": list(model.resolution),
+        "packs": model.packs, "edge": model.edge,
+        "cells": None if model.cells is None else list(model.cells),
+        "lobe": None if lobe_model is None else {
+            "family": lobe_model.family, "nu": lobe_model.nu, "nv": lobe_model.nv},
+        "lobe_report": {k: v for k, v in model.report.items() if "lobe" in k
+                        or k == "residual_anisotropy" or k.startswith("grazing")
+                        or k == "view_horizon_de94"},
+        "fit_seconds": float(job.series[-1]["seconds"]), "job_seconds": job.seconds,
+        "bytes": model.nbytes, "errors": pairs.errors(model, reference),
+        "curve": error_curve(job, pairs, reference), "model": model}
 
 
 def error_curve(job, pairs: Pairs, reference: dict) -> list[dict]:

@@ -39,7 +39,8 @@ def main_table(result: dict, label: str = "after") -> list[str]:
 STAGES = (("original", "packs, linear edge (before issue 18)"),
           ("before", "packs, horizon edge rule"),
           ("lobe", "lobe + packs"),
-          ("after", "+ Automatic θ cells and edge rule (now)"))
+          ("horizon", "+ Automatic θ cells and edge rule"),
+          ("after", "+ measured cells (now)"))
 
 
 def stage_table(result: dict) -> list[str]:
@@ -193,7 +194,9 @@ def markdown(result: dict) -> list[str]:
         "packs of the rest (core/brdf/lobe.py), kept where it measures better; then the "
         "same with Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ "
         "cells where the error there is the cells', and the edge rule at the view's "
-        "horizon.", "",
+        "horizon; last, a measured table drawn in its own cells as its reader looks it up "
+        "(core/brdf/measured_cells.py: the MERL case; the others are not tables looked up "
+        "in cells and repeat the column before).", "",
         *stage_table(result), "",
         *theta_section(result),
         "## The lobe Automatic chose", "",

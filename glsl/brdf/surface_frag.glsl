@@ -50,7 +50,7 @@ void main()
   return;
 #  endif
   vec3 xyz = vec3(0.0);
-#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1
+#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1 && !SM_CELLS
   /* Packs outermost, so that the axes depending on the view alone (SM_VIEW_AXES: θo,
    * and φo where the parameterisation has it) are fetched and interpolated once per
    * pack for all lights, and only each light's own axes per light (issue 19). The sum
@@ -100,14 +100,11 @@ void main()
     float irradiance = sm_light_incidence(light, P, wi_world);
     vec3 wi = sm_to_local(frame, wi_world);
     if (irradiance > 0.0 && wi.z > 0.0 && wo.z > 0.0) {
-      vec3 reflected = sm_reflected_xyz(sm_lookups(sm_coordinates(wi, wo)), light);
-#    if !SM_COSINE_WEIGHTED
-      reflected *= wi.z;
+#    if SM_CELLS
+      xyz += irradiance * sm_cells_xyz(wi, wo, light);
+#    else
+      xyz += irradiance * sm_stored_xyz(wi, wo, light);
 #    endif
-#    if SM_LOBE_TEXEL > 0
-      reflected += sm_lobe_xyz(wi, wo, light);
-#    endif
-      xyz += irradiance * reflected;
     }
   }
 #  endif

@@ -121,7 +121,8 @@ class GPUMaterial:
                          output=output, sphere=sphere,
                          light_stride=self.light_stride(lights, precontract),
                          factors=self.precision,
-                         lobe_texel=lobe_texel(self.model, precontract))
+                         lobe_texel=lobe_texel(self.model, precontract),
+                         cells=tuple(model.cells or ()))
 
     def light_texture(self, lights: list[SpectralLight], precontract: bool, lights_key=None):
         """The light rows for ``lights``, cached under ``lights_key`` when given: a uniform

@@ -96,7 +96,7 @@ def factor_options(inputs: sources.MaterialInputs, brdf, isotropic: bool) -> Fac
                          isotropic=isotropic, packs=inputs.packs, target_de94=inputs.target_de94,
                          pack_size=inputs.pack_size, smoothing=inputs.smoothing,
                          lobe=inputs.lobe, automatic=inputs.automatic,
-                         plain_layout=plain_layout)
+                         plain_layout=plain_layout, cells=inputs.cells)
 
 
 def run_scene_job(plan: ScenePlan, callback: ProgressCallback | None = None, *,

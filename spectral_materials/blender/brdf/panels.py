@@ -75,6 +75,8 @@ class SPECTRAL_PT_material_settings(bpy.types.Panel):
         layout.prop(s, "pack_size")
         layout.prop(s, "smoothing")
         layout.prop(s, "specular_lobe")
+        if s.source == "FILE":
+            layout.prop(s, "measured_cells")
         if not draw_job(layout, context):
             layout.operator("spectral.factor_material", icon="PLAY")
 

@@ -54,6 +54,14 @@ LOBE_ITEMS = [
     ("ASHIKHMIN_SHIRLEY", "Ashikhmin–Shirley", "Always fit and keep an Ashikhmin–Shirley "
                                                "lobe with free Fresnel spectra"),
 ]
+#: Whether a measured table's model is drawn in its cells (core/brdf/job.py CELL_SETTINGS).
+CELL_ITEMS = [
+    ("AUTO", "Automatic", "In the file's cells where its readers look pairs up in cells "
+                          "(MERL), as the reference does; smooth otherwise"),
+    ("CELLS", "Cells", "Evaluate at the centre of the file's cell each pair falls in, as "
+                       "the file's readers look it up"),
+    ("SMOOTH", "Smooth", "Interpolate smoothly between the tabulated angles"),
+]
 #: Property enum identifier → parameterisation name (sources.py resolves AUTO per BRDF).
 PARAMETERIZATION_KEYS = {"AUTO": "io", **{p.name.upper(): p.name for p in _OFFERED}}
 
@@ -184,6 +192,11 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
         name="Specular lobe", items=LOBE_ITEMS, default="AUTO",
         description="An analytic specular lobe evaluated beside the factor packs, which "
                     "then hold only the rest: glossy highlights stay sharp at every angle")
+    measured_cells: EnumProperty(
+        name="Measured cells", items=CELL_ITEMS, default="AUTO",
+        description="For a measured file: whether the viewport draws it in the file's own "
+                    "cells, as the file's readers look it up (MERL: nearest cell), or "
+                    "smoothly between them")
     draw_precision: EnumProperty(
         name="Factor precision", items=DRAW_PRECISION_ITEMS, default="EXACT",
         update=_redraw_viewports,

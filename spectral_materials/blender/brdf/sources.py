@@ -87,6 +87,7 @@ class MaterialInputs:
     smoothing: int = 0
     lobe: str = "off"                         # core/brdf/job.py LOBE_SETTINGS
     automatic: bool = False                   # the parameterisation is "Automatic"
+    cells: str = "auto"                       # core/brdf/job.py CELL_SETTINGS
 
     def brdf(self):
         """The BRDF callable (may run in a worker thread)."""
@@ -105,6 +106,10 @@ class MaterialInputs:
             "theta_cells": self.theta_cells, "packs": self.packs,
             "target_de94": self.target_de94, "pack_size": self.pack_size,
             "smoothing": self.smoothing, "lobe": self.lobe, "automatic": self.automatic,
+            # Only where it can change the result (a file looked up in cells, or a setting
+            # other than the default), so that analytic materials keep their hash.
+            **({"cells": self.cells} if self.source == "file" or self.cells != "auto"
+               else {}),
         }
 
 
@@ -197,7 +202,8 @@ def material_inputs(material) -> MaterialInputs:
                   theta_cells=int(s.theta_cells), packs=int(s.packs),
                   target_de94=float(s.target_de94) if s.use_target else None,
                   pack_size=int(s.pack_size), smoothing=int(s.smoothing),
-                  lobe=s.specular_lobe.lower(), automatic=s.parameterization == "AUTO")
+                  lobe=s.specular_lobe.lower(), automatic=s.parameterization == "AUTO",
+                  cells=s.measured_cells.lower())
     if s.source == "FILE":
         path = _abspath(s.filepath)
         if not path:

@@ -13,7 +13,8 @@ texel groups for ``R`` rank-one terms (one factor pack of 4 terms = one group):
 Width is the longest of the axes, the spectral size and L. Row 0 is the image's
 bottom row (Blender's pixel order). The wavelengths (float64) are an ID property
 of the result group, and so are an analytic lobe's exponents and spectra
-(``lobe_exponents``, ``lobe_spectral``: float32 values held as float64, exact);
+(``lobe_exponents``, ``lobe_spectral``: float32 values held as float64, exact), and
+the measured cells a model is drawn in (``cells``: three counts, empty when smooth);
 everything else the :class:`FactoredBRDF` needs is a plain property there. Because
 images are full float and packed as lossless EXR, a stored model loads back
 bit-identical to the float32 model that was stored.
@@ -156,6 +157,7 @@ def apply_factored(material, stored: FactoredBRDF, images: tuple, input_hash: st
     result["lobe_exponents"] = [] if lobe is None else [lobe.nu, lobe.nv]
     result["lobe_spectral"] = [] if lobe is None else \
         [float(v) for v in np.asarray(lobe.spectral, np.float64).ravel()]
+    result["cells"] = [] if stored.cells is None else [int(n) for n in stored.cells]
     material.spectral.enabled = True
     # Memfile undo re-reads only IDs tagged as changed; property writes alone do not tag.
     material.update_tag()
@@ -198,6 +200,7 @@ def load_factored(material) -> FactoredBRDF:
             spectral = np.asarray(result["lobe_spectral"], dtype=np.float64)
             lobe = SpecularLobe(result.lobe, nu, nv,
                                 spectral.astype(np.float32).reshape(-1, 2))
+        cells = tuple(int(n) for n in result.get("cells", [])) or None
     except (KeyError, ValueError, TypeError) as exc:
         raise StorageError(f"{name}: stored factor metadata is incomplete ({exc})") from None
     width, height = image.size
@@ -218,7 +221,7 @@ def load_factored(material) -> FactoredBRDF:
         wavelengths=wavelengths, basis=basis, cosine_weighted=result.cosine_weighted,
         form="cp", factors=arrays[:-1], spectral=arrays[-1], pack_size=result.pack_size,
         edge=result.edge or "linear", report=json.loads(result.report_json or "{}"),
-        lobe=lobe,
+        lobe=lobe, cells=cells,
     )
     try:
         model.validate()

@@ -18,6 +18,9 @@ each of a few lights (the key light first), stage by stage in labelled frames:
    from local wi, wo as ``glsl/brdf/specular_lobe.glsl``, times their RGB weights,
    added to the packs' radiance outside the horizon rule's scale.
 
+A model drawn in a measured table's cells first moves each light's pair to its cell's
+centre (:mod:`.cell_nodes`).
+
 Outputs: ``Spectral lights`` (the sum of those radiances, for an Emission shader) and
 ``Base Color``, ``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the
 other lights' irradiance-weighted spectrum, ``core.prefilter.fit_principled``, for a
@@ -36,6 +39,7 @@ import numpy as np
 
 from ...core.brdf.axes import holds_horizon
 from ...core.brdf.factored import FactoredBRDF
+from .cell_nodes import cell_centre_pair
 from .light_nodes import KeyLight, light_incidence, shading_frame
 from .lobe_nodes import lobe_rgb
 
@@ -351,6 +355,12 @@ def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, 
     ``label``: incidence, coordinates, axis lookups, packs and the lobe."""
     parameterization = model.grid.parameterization.name
     wi, wo, irradiance, lit = light_incidence(g, key, frame, f"{label}: incidence")
+    ratio = None
+    if model.cells is not None:
+        g.begin(f"{label}: the centre of the measured cell")
+        hd = _coordinates(g, "hd", wi, wo, base)
+        wi, wo, ratio = cell_centre_pair(g, hd, wi, wo, model.cells, base + 12)
+        base += 30
     g.begin(f"{label}: coordinates ({parameterization})")
     coords = _coordinates(g, parameterization, wi, wo, base)
     base += 12
@@ -367,6 +377,8 @@ def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, 
     g.begin(f"{label}: radiance")
     lit_scale = g.math("MULTIPLY", g.math("MULTIPLY", irradiance, lit, column=base + 9),
                        1.0 / math.pi, column=base + 10, label="E · lit / π")
+    if ratio is not None:
+        lit_scale = g.math("MULTIPLY", lit_scale, ratio, column=base + 10, label="× cell cosθi")
     scale = lit_scale
     if horizon is not None:
         scale = g.math("MULTIPLY", scale, horizon, column=base + 10, label="× horizon")

@@ -15,6 +15,7 @@ from pathlib import Path
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.filtered_factors import FACTOR_PRECISIONS, PRECISION_TEXELS
 from ...core.brdf.lobe import DENOMINATOR_FLOOR
+from ...core.brdf.measured_cells import MIN_CENTRE_COSINE
 from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
 from ...core.brdf.shading import LOBE_TEXELS, light_row_texels
 from ...core.lights import LIGHT_CODES
@@ -30,8 +31,8 @@ PARAMETERIZATION_CODES = {name: code for code, name in enumerate(PARAMETERIZATIO
 FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/axis_lookup.glsl",
                     "brdf/factor_packs.glsl", "common/light_rows.glsl",
                     "brdf/spectral_basis.glsl", "brdf/specular_lobe.glsl",
-                    "common/lights.glsl", "common/frame.glsl",
-                    "common/colour_pipeline.glsl")
+                    "brdf/pair_xyz.glsl", "brdf/measured_cells.glsl",
+                    "common/lights.glsl", "common/frame.glsl", "common/colour_pipeline.glsl")
 
 #: Lights one variant draws. The light loop may be unrolled into one copy of the pack
 #: loop per light, and the frame time grows linearly with lights (docs/bench_draw.md):
@@ -80,6 +81,15 @@ def factor_defines(precision: str) -> dict[str, str]:
     }
 
 
+def cell_defines(cells: tuple) -> dict[str, str]:
+    """``SM_CELLS`` and the cell counts ``SM_CELLS_H/_D/_P`` of a model drawn in a measured
+    table's cells (glsl/brdf/measured_cells.glsl), with the centre cosine's floor."""
+    counts = tuple(int(n) for n in cells) if cells else (1, 1, 1)
+    return {"SM_CELLS": "1" if cells else "0",
+            **{f"SM_CELLS_{axis}": str(n) for axis, n in zip("HDP", counts)},
+            "SM_MIN_CENTRE_COSINE": f"{MIN_CENTRE_COSINE:.9g}"}
+
+
 def view_axes_mask(name: str) -> int:
     """``SM_VIEW_AXES``: bit k set where axis k of the parameterisation depends on the
     view alone (``Parameterization.view_axes``)."""
@@ -121,6 +131,9 @@ class ShaderKey:
     #: Light-row texel of an analytic lobe's two weights (glsl/brdf/specular_lobe.glsl);
     #: 0: the model has no lobe.
     lobe_texel: int = 0
+    #: (θh, θd, φd) cells of the measured table the model is drawn in
+    #: (glsl/brdf/measured_cells.glsl); (): drawn smooth.
+    cells: tuple = ()
 
     def defines(self) -> dict[str, str]:
         out = {
@@ -140,6 +153,7 @@ class ShaderKey:
             **factor_defines(self.factors),
             "SM_LOBE_TEXEL": str(self.lobe_texel),
             "SM_LOBE_DENOMINATOR_FLOOR": f"{DENOMINATOR_FLOOR:.9g}",
+            **cell_defines(self.cells),
         }
         if self.sphere:
             out["SM_GEOMETRY_SPHERE"] = "1"

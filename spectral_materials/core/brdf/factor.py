@@ -27,7 +27,7 @@ from ..decomposition import cp, separable
 from ..progress import ProgressCallback, report, scaled
 from . import metrics
 from .factored import FactoredBRDF
-from .lobe import LOBE_FAMILIES, LobeResidual, SpecularLobe, fit_lobe
+from .lobe import LobeResidual, SpecularLobe, resolve_lobe
 from .mode_weighting import mode_weights, scale_modes
 from .params import Parameterization, get_parameterization
 from .tabulate import Grid, Table, tabulate
@@ -105,6 +105,7 @@ def factor_brdf(
     smoothing: int = 0,
     settings: cp.ALSSettings | None = None,
     lobe: str | SpecularLobe | None = None,
+    cells: tuple[int, int, int] | None = None,
 ) -> FactoredBRDF:
     """Factor a spectral BRDF into CP factor packs or a Kautz–McCool separable form.
 
@@ -157,6 +158,9 @@ def factor_brdf(
         An analytic specular lobe beside the packs (:mod:`.lobe`): a family of
         ``LOBE_FAMILIES`` is fitted, a ``SpecularLobe`` on the basis used as given; the
         packs then factor the residual. None (default): packs alone.
+    cells : (n_θh, n_θd, n_φd), optional
+        Draw the model in a measured table's cells, as the table's readers look it up
+        (:mod:`.measured_cells`; ``merl.MERLBRDF.lookup_cells``). None: drawn smooth.
 
     Returns
     -------
@@ -169,7 +173,7 @@ def factor_brdf(
         pack_size=pack_size, spectral_basis=spectral_basis, callback=callback, seed=seed,
         method=method, cosine_weighted=cosine_weighted, compress_tolerance=compress_tolerance,
         weighting=weighting, nd_norm=nd_norm, smoothing=smoothing, settings=settings,
-        lobe=lobe,
+        lobe=lobe, cells=cells,
     )
     return series[-1]
 
@@ -190,13 +194,15 @@ def resolve_parameterization(brdf, name: str, isotropic: bool | None,
 
 def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=None,
                   wavelengths=None, spectral_basis=None, cosine_weighted=True,
-                  lobe: str | SpecularLobe | None = None, callback=None) -> Table:
+                  lobe: str | SpecularLobe | None = None, cells=None, callback=None) -> Table:
     """Steps 1–3 of :func:`factor_brdf`: parameterisation, basis and tabulation.
 
     ``lobe``: a family of :data:`.lobe.LOBE_FAMILIES` fits an analytic lobe
     (:func:`.lobe.fit_lobe`) after the basis, a :class:`.lobe.SpecularLobe` (on that
     basis) is used as given; the table then holds the residual ``f − lobe`` and carries
-    the lobe (``Table.lobe``).
+    the lobe (``Table.lobe``). ``cells``: the models are drawn in a measured table's
+    (θh, θd, φd) cells (:mod:`.measured_cells`; ``Table.cells``), and the lobe is taken
+    out as drawn there.
     """
     if not callable(brdf):
         raise TypeError(f"brdf must be callable f(wi, wo, wavelengths), got {type(brdf).__name__}")
@@ -206,23 +212,18 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
     grid = Grid(param, tuple(resolution) if resolution is not None else param.default_resolution)
     report(callback, 0.0, "spectral basis" if spectral_basis is not None else "tabulating")
     basis = None if spectral_basis is None else build_basis(brdf, wl, isotropic, spectral_basis)
+    cells = None if cells is None else tuple(int(n) for n in cells)
     if lobe is None:
-        return tabulate(brdf, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
-                        callback=callback)
-    fit_report = {}
-    if isinstance(lobe, str):
-        if lobe not in LOBE_FAMILIES:
-            raise ValueError(f"lobe must be one of {LOBE_FAMILIES} or a SpecularLobe, "
-                             f"got {lobe!r}")
-        fit = fit_lobe(brdf, wl, basis, isotropic=isotropic, family=lobe,
-                       callback=scaled(callback, 0.0, 0.5))
-        lobe = fit.lobe
-        fit_report = {"lobe_fit_seconds": fit.seconds, "lobe_fit_gain": fit.gain,
-                      "lobe_fit_evaluations": fit.evaluations}
-    residual = LobeResidual(brdf, lobe, wl, None if basis is None else basis.vectors)
+        table = tabulate(brdf, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
+                         callback=callback)
+        table.cells = cells
+        return table
+    lobe, fit_report = resolve_lobe(brdf, lobe, wl, basis, isotropic,
+                                    scaled(callback, 0.0, 0.5))
+    residual = LobeResidual(brdf, lobe, wl, None if basis is None else basis.vectors, cells)
     table = tabulate(residual, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
                      callback=scaled(callback, 0.5 if fit_report else 0.0, 1.0), signed=True)
-    table.lobe, table.lobe_report = lobe, fit_report
+    table.lobe, table.lobe_report, table.cells = lobe, fit_report, cells
     return table
 
 
@@ -271,6 +272,7 @@ def factor_brdf_series(
         # f·cosθi is 0 at θi = 90°; an uncosined table is not, and keeps extrapolating.
         edge="horizon" if table.cosine_weighted else "linear",
         lobe=table.lobe,
+        cells=table.cells,
     )
     common_report = {
         "method": method, "seed": seed, "grid": table.grid.describe(),

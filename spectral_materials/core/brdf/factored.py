@@ -9,7 +9,9 @@ samples (``basis is None``) or coefficients on an orthonormal basis Ψ (L, m).
 Evaluation interpolates each factor linearly along its axes (φ wraps, θ ends
 extrapolate), which is exactly what a GPU's linear texture filter does with the
 same arrays. A model may carry an analytic specular lobe (:mod:`.lobe`) whose value
-is added to the packs'; the packs then hold the residual.
+is added to the packs'; the packs then hold the residual. A model of a measured table
+may be drawn in the table's cells (``cells``, :mod:`.measured_cells`), as its readers look
+it up.
 
 File format (``save``/``load``): an uncompressed ``.npz`` whose ``meta`` entry
 is a JSON document; see README §"Factor file format" for every array.
@@ -25,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..colour import pipeline as colour_pipeline, spectra
+from . import measured_cells
 from .axes import EDGE_RULES
 from .lobe import SpecularLobe
 from .params import check_direction_pairs, get_parameterization
@@ -33,9 +36,10 @@ from .tabulate import Grid, multilinear
 FORMAT = "spectral_materials.factored_brdf"
 #: 2: the file carries an analytic lobe (``meta["lobe"]``, ``lobe_spectral``), which a
 #: reader of version 1 would drop, taking the residual packs for the whole BRDF; files
-#: without one stay version 1.
-FORMAT_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+#: without one stay version 1. 3: the model is drawn in a measured table's cells
+#: (``meta["cells"]``), which a reader of version 2 would draw smooth.
+FORMAT_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
 
 
 @dataclass
@@ -58,6 +62,9 @@ class FactoredBRDF:
     report: dict = field(default_factory=dict)
     #: An analytic lobe added to the packs (which then hold the residual), or None.
     lobe: SpecularLobe | None = None
+    #: (θh, θd, φd) cells of the measured table the model is drawn in, as its readers
+    #: look it up (:mod:`.measured_cells`), or None: drawn smooth.
+    cells: tuple[int, int, int] | None = None
 
     # ------------------------------------------------------------------ shape
 
@@ -90,6 +97,17 @@ class FactoredBRDF:
     def coefficients(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
         """Spectral-axis values (N, S) of the stored quantity (``f·cosθi`` when cosine-weighted)."""
         wi, wo = check_direction_pairs(wi, wo)
+        if self.cells is None:
+            out = self._stored(wi, wo)
+        else:
+            out = measured_cells.in_cells(self._stored, wi, wo, self.cosine_weighted,
+                                          self.cells)
+        lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
+        out[~lit] = 0.0
+        return out
+
+    def _stored(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+        """The stored quantity at the pairs themselves (packs, edge scale and lobe)."""
         grid = self.grid
         coords = grid.parameterization.forward(wi, wo)
         scale = grid.edge_scale(coords, self.edge)
@@ -101,8 +119,6 @@ class FactoredBRDF:
             out *= scale[:, None]
         if self.lobe is not None:
             out += self.lobe.coefficients(wi, wo, self.cosine_weighted)
-        lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
-        out[~lit] = 0.0
         return out
 
     def _angular_terms(self, coords: np.ndarray) -> np.ndarray:
@@ -201,7 +217,7 @@ class FactoredBRDF:
         grid = self.grid
         return {
             "format": FORMAT,
-            "version": FORMAT_VERSION if self.lobe is not None else 1,
+            "version": 3 if self.cells is not None else 2 if self.lobe is not None else 1,
             "form": self.form,
             "grid": grid.describe(),
             "pack_size": self.pack_size,
@@ -210,6 +226,7 @@ class FactoredBRDF:
             "split": None if self.split is None else [list(s) for s in self.split],
             "lobe": None if self.lobe is None else {
                 "family": self.lobe.family, "nu": self.lobe.nu, "nv": self.lobe.nv},
+            "cells": None if self.cells is None else list(self.cells),
             "spectral_axis": "wavelength" if self.basis is None else "basis",
             "units": {"wavelengths": "nm", "factors": "1/sr (product of all factors)"},
             "report": self.report,
@@ -282,6 +299,8 @@ class FactoredBRDF:
             form=meta["form"], pack_size=int(meta["pack_size"]), edge=meta["edge"],
             report=meta.get("report", {}),
         )
+        if meta.get("cells") is not None:
+            kwargs["cells"] = tuple(int(n) for n in meta["cells"])
         lobe = meta.get("lobe")
         if lobe is not None:
             kwargs["lobe"] = SpecularLobe(str(lobe["family"]), float(lobe["nu"]),
@@ -328,6 +347,10 @@ class FactoredBRDF:
         for name, a in arrays.items():
             if not np.isfinite(a).all():
                 raise ValueError(f"{name} has {int((~np.isfinite(a)).sum())} non-finite values")
+        if self.cells is not None and (len(self.cells) != 3 or not all(
+                isinstance(n, int) and 1 <= n <= measured_cells.MAX_CELLS for n in self.cells)):
+            raise ValueError(f"cells must be 3 counts in [1, {measured_cells.MAX_CELLS}], "
+                             f"got {self.cells}")
         if self.lobe is not None:
             self.lobe.validate()
             if self.lobe.spectral.shape[0] != s:

@@ -67,6 +67,25 @@ class FactorOptions:
     #: Under ``automatic``: the choices at the horizon (core/brdf/grazing.py), twice the θ
     #: cells where the packs' error there is the cells', and the view-horizon edge rule.
     horizon_choices: bool = True
+    #: :data:`CELL_SETTINGS`: whether a measured table's model is drawn in its cells, as
+    #: its readers look it up (core/brdf/measured_cells.py).
+    cells: str = "auto"
+
+
+#: "auto": in the cells of a source that looks pairs up in cells (``lookup_cells``: MERL
+#: files), smooth otherwise; "cells": in them, an error for a source without; "smooth".
+CELL_SETTINGS = ("auto", "cells", "smooth")
+
+
+def drawn_cells(brdf, setting: str) -> tuple[int, int, int] | None:
+    """The cells ``setting`` draws a model of ``brdf`` in (:data:`CELL_SETTINGS`), or None."""
+    if setting not in CELL_SETTINGS:
+        raise ValueError(f"cells must be one of {CELL_SETTINGS}, got {setting!r}")
+    cells = getattr(brdf, "lookup_cells", None)
+    if setting == "cells" and cells is None:
+        raise ValueError(f"cells: {type(brdf).__name__} is not a table looked up in cells "
+                         "(a MERL file is); choose 'auto' or 'smooth'")
+    return None if setting == "smooth" or cells is None else tuple(int(n) for n in cells)
 
 
 @dataclass
@@ -93,6 +112,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     start = time.perf_counter()
     report(callback, 0.0, "reference colours")
     error = metrics.ProtocolError(brdf)
+    cells = drawn_cells(brdf, options.cells)
     lobe, lobe_report = choose_lobe(brdf, basis, options, scaled(callback, 0.05, 0.1))
     counts = None if options.target_de94 is not None else list(range(1, options.packs + 1))
     lobe_options = options if lobe is None else residual_layout(brdf, lobe, basis, options,
@@ -109,7 +129,7 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
             parameterization=chosen.parameterization, isotropic=chosen.isotropic,
-            resolution=chosen.resolution, spectral_basis=basis, lobe=with_lobe,
+            resolution=chosen.resolution, spectral_basis=basis, lobe=with_lobe, cells=cells,
             callback=scaled(callback, low, high))
 
     undecided = lobe is not None and options.lobe == "auto" \

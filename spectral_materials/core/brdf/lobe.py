@@ -44,6 +44,7 @@ from scipy.optimize import minimize
 
 from ..colour.basis import LinearModelBasis
 from ..progress import ProgressCallback, report
+from . import measured_cells
 from .metrics import uniform_hemisphere
 
 #: Lobe families a model can carry (GLSL ``SM_LOBE_*`` codes are their indices + 1).
@@ -296,16 +297,34 @@ def residual_anisotropy(brdf, lobe: SpecularLobe, wavelengths: np.ndarray,
     return float(np.sqrt(np.mean(change ** 2)) / max(scale, np.finfo(float).tiny))
 
 
+def resolve_lobe(brdf, lobe: str | SpecularLobe, wavelengths: np.ndarray,
+                 basis: LinearModelBasis | None, isotropic: bool,
+                 callback: ProgressCallback | None = None) -> tuple[SpecularLobe, dict]:
+    """``lobe`` as given (a :class:`SpecularLobe`), or a family's lobe fitted to ``brdf``
+    (:func:`fit_lobe`) with the fit's figures; ValueError for an unknown family."""
+    if not isinstance(lobe, str):
+        return lobe, {}
+    if lobe not in LOBE_FAMILIES:
+        raise ValueError(f"lobe must be one of {LOBE_FAMILIES} or a SpecularLobe, got {lobe!r}")
+    fit = fit_lobe(brdf, wavelengths, basis, isotropic=isotropic, family=lobe,
+                   callback=callback)
+    return fit.lobe, {"lobe_fit_seconds": fit.seconds, "lobe_fit_gain": fit.gain,
+                      "lobe_fit_evaluations": fit.evaluations}
+
+
 class LobeResidual:
     """``brdf − lobe`` as a BRDF callable: what the factor packs factor beside a lobe.
 
     It may be negative (where the lobe overshoots); the tabulation is told so. Other
-    attributes are the BRDF's own.
+    attributes are the BRDF's own. ``cells``: the model is drawn in a measured table's
+    cells (:mod:`.measured_cells`), so the lobe is taken out as drawn there, in cells:
+    the rest is then the table's own binned rest, not the smooth lobe's variation within
+    each cell (which near grazing the packs cannot follow).
     """
 
     def __init__(self, brdf, lobe: SpecularLobe, wavelengths: np.ndarray,
-                 basis: np.ndarray | None):
-        self.brdf, self.lobe = brdf, lobe
+                 basis: np.ndarray | None, cells: tuple[int, int, int] | None = None):
+        self.brdf, self.lobe, self.cells = brdf, lobe, cells
         self._wavelengths = np.asarray(wavelengths, dtype=np.float64)
         self._spectra = lobe.on_wavelengths(basis)                      # (L, 2)
 
@@ -317,9 +336,13 @@ class LobeResidual:
             spectra = np.stack([np.interp(wl, self._wavelengths, self._spectra[:, k])
                                 for k in range(2)], axis=1)
         f = np.asarray(self.brdf(wi, wo, wl), dtype=np.float64)
-        return f - self.lobe.angular(wi, wo) @ spectra.T
+        if self.cells is None:
+            angular = self.lobe.angular(wi, wo)
+        else:
+            angular = measured_cells.in_cells(self.lobe.angular, wi, wo, False, self.cells)
+        return f - angular @ spectra.T
 
     def __getattr__(self, name):
-        if name == "brdf":                  # not yet set (copy, pickle): no recursion
+        if name in ("brdf", "cells"):       # not yet set (copy, pickle): no recursion
             raise AttributeError(name)
         return getattr(self.brdf, name)

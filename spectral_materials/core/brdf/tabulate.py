@@ -122,6 +122,9 @@ class Table:
     lobe : SpecularLobe or None
         The analytic lobe taken out of the BRDF before tabulating (``values`` is then the
         residual), set by ``factor.prepare_table``.
+    cells : tuple or None
+        The measured table's (θh, θd, φd) cells the models are drawn in
+        (:mod:`.measured_cells`), set by ``factor.prepare_table``.
     """
 
     values: np.ndarray
@@ -135,6 +138,7 @@ class Table:
     seconds: float
     lobe: SpecularLobe | None = None
     lobe_report: dict = field(default_factory=dict)
+    cells: tuple[int, int, int] | None = None
 
     def xyz(self, wi: np.ndarray, wo: np.ndarray, illuminant: str | np.ndarray = "D65",
             chunk: int = 8192) -> np.ndarray:

@@ -74,6 +74,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._moved import forward_names
+from ..brdf import measured_cells
 from ..brdf.params import PARAMETERIZATIONS, _hd_forward
 from ..colour import spectra, uplift as _uplift
 from ..errors import InvalidBRDFData
@@ -94,7 +95,7 @@ __all__ = [
 ]
 
 #: (θh, θd, φd) cells of a MERL file.
-MERL_SHAPE = (90, 90, 180)
+MERL_SHAPE = measured_cells.MERL_SHAPE
 #: Multipliers from stored values to the BRDF (sr⁻¹), per channel R, G, B.
 CHANNEL_SCALES = (1.0 / 1500.0, 1.15 / 1500.0, 1.66 / 1500.0)
 HEADER_BYTES = 12
@@ -103,7 +104,6 @@ FILE_BYTES = HEADER_BYTES + 3 * 8 * math.prod(MERL_SHAPE)
 #: Direction pairs uplifted per chunk.
 CHUNK_POINTS = 1 << 16
 
-_HALF_PI = 0.5 * math.pi
 
 # The uplift names that moved to core.colour.uplift in issue 17 (old name → new home), still
 # served from here, with a DeprecationWarning, for one release.
@@ -129,19 +129,8 @@ def merl_indices(theta_h: np.ndarray, theta_d: np.ndarray, phi_d: np.ndarray,
     φd may be anywhere in [0, 2π) (values above π are folded by reciprocity) or
     (−π, π] as ``atan2`` gives it. Non-finite angles count as 0.
     """
-    n_h, n_d, n_p = shape
-    th = np.nan_to_num(np.asarray(theta_h, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-    td = np.nan_to_num(np.asarray(theta_d, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-    pd = np.nan_to_num(np.asarray(phi_d, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
-    # θh: square-root spacing; the reference returns 0 for θh <= 0.
-    ih = np.floor(np.sqrt(np.maximum(th, 0.0) / _HALF_PI) * n_h)
-    ih = np.clip(ih, 0, n_h - 1).astype(np.int64)
-    idd = np.clip(np.floor(td / _HALF_PI * n_d), 0, n_d - 1).astype(np.int64)
-    # Reciprocity: f(φd) = f(φd + π). The reference adds π to a negative atan2, i.e.
-    # maps (π, 2π) onto (0, π) and keeps π itself (whose index clamps to n_φ − 1).
-    pd = np.mod(pd, 2.0 * math.pi)
-    pd = np.where(pd > math.pi, pd - math.pi, pd)
-    ip = np.clip(np.floor(pd / math.pi * n_p), 0, n_p - 1).astype(np.int64)
+    _, n_d, n_p = shape
+    ih, idd, ip = measured_cells.cell_indices(theta_h, theta_d, phi_d, shape)
     return ip + n_p * (idd + n_d * ih)
 
 
@@ -150,10 +139,7 @@ def cell_centres(shape: tuple[int, int, int] = MERL_SHAPE) -> np.ndarray:
 
     θh = ((i + ½)/n)² · π/2, θd = (j + ½)/n · π/2, φd = (k + ½)/n · π.
     """
-    n_h, n_d, n_p = shape
-    th = ((np.arange(n_h) + 0.5) / n_h) ** 2 * _HALF_PI
-    td = (np.arange(n_d) + 0.5) / n_d * _HALF_PI
-    pd = (np.arange(n_p) + 0.5) / n_p * math.pi
+    th, td, pd = measured_cells.centre_angles(*(np.arange(n) for n in shape), shape)
     mesh = np.meshgrid(th, td, pd, indexing="ij")
     return np.stack([m.ravel() for m in mesh], axis=-1)
 
@@ -215,6 +201,12 @@ class MERLBRDF:
     @property
     def isotropic(self) -> bool:
         return True
+
+    @property
+    def lookup_cells(self) -> tuple[int, int, int]:
+        """The (θh, θd, φd) cells this reader looks pairs up in (nearest cell): a model of
+        the table is drawn in them by default (``core/brdf/measured_cells.py``)."""
+        return self.shape
 
     @property
     def meta(self) -> dict:

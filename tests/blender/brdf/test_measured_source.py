@@ -9,7 +9,13 @@ bpy = pytest.importorskip("bpy")
 
 pytestmark = pytest.mark.bpy
 
+from spectral_materials.blender.brdf import gpu_material, sources, storage
+from spectral_materials.core.brdf import shading
 from spectral_materials.core.formats import merl
+
+
+def _sun():
+    return shading.protocol_sun(30.0, "D65")
 
 
 def _lambert_rgb(wi, wo):
@@ -33,6 +39,18 @@ def test_merl_file_material_factors(clean_scene, tmp_path):
     result = material.spectral.result
     assert result.packs == 1 and result.image is not None
     assert result.de94_mean < 1.0         # a Lambertian table factors almost exactly
+    # Automatic draws a MERL file in its cells, as its readers look it up; the stored
+    # model keeps them, the viewport's shader variant draws them, and the setting is part
+    # of the inputs: "Smooth" makes the stored factors stale.
+    stored = storage.load_factored(material)
+    assert stored.cells == merl.MERL_SHAPE
+    assert gpu_material.GPUMaterial(stored).key([_sun()]).cells == merl.MERL_SHAPE
+    before = sources.input_hash(sources.material_inputs(material), stored.basis)
+    material.spectral.measured_cells = "SMOOTH"
+    after = sources.input_hash(sources.material_inputs(material), stored.basis)
+    assert after != before
+    assert bpy.ops.spectral.factor_material() == {"FINISHED"}
+    assert storage.load_factored(material).cells is None
 
 
 def test_unknown_file_type_is_a_clear_error(clean_scene, tmp_path):

@@ -363,3 +363,28 @@ def test_eevee_box_names_the_spectral_lights(clean_scene, iso_model):
     text = " ".join(t for kind, t in layout.calls if kind == "label")
     assert "'Light'" in text and "'Fill'" in text
     assert ("operator", "spectral.eevee_remove") in layout.calls
+
+
+@pytest.mark.parametrize("cells,incidence,illuminant", [
+    ((90, 90, 180), 43.0, "D65"), ((90, 90, 180), 85.0, "FL11"), ((9, 9, 18), 43.0, "FL2")])
+def test_eevee_draws_measured_cells(clean_scene, cells, incidence, illuminant):
+    """A model drawn in a measured table's cells (core/brdf/measured_cells.py), lobe
+    included: EEVEE's sphere against the float64 evaluation in the same cells. At 85° some
+    pixels fall in MERL cells whose centre is below the horizon, which the nodes draw at
+    the pair itself. The coarse 9 × 9 × 18 cells make steps that a smooth draw misses."""
+    model = replace(_model("io_iso", (16, 32, 16), AS_LOBE), cells=cells)
+    xyz, _ = eevee_render.render_sphere_eevee(model, incidence, illuminant, 64)
+    space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
+    to_rgb = prefilter.scene_linear_matrix(colour_pipeline.white_xyz("D65", WL), space)
+    inner = ndimage.binary_erosion(shading.sphere_pixels(64)[1], iterations=2)
+    white = colour_pipeline.white_xyz(illuminant, WL)
+
+    def error(drawn):
+        reference, _ = shading.sphere_xyz(drawn, incidence, illuminant, 64)
+        return colour_pipeline.delta_e94(prefilter.clamped_xyz(reference[inner], to_rgb),
+                                         xyz[inner], white)
+
+    de = error(model)
+    assert de.mean() <= MEAN_BOUND and np.percentile(de, 95) <= P95_BOUND, de.mean()
+    if cells == (9, 9, 18):
+        assert error(replace(model, cells=None)).mean() > 5 * MEAN_BOUND

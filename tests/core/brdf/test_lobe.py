@@ -279,6 +279,6 @@ def test_hostile_lobe_files_are_refused_naming_the_file(tmp_path):
     for bad in (write("nan.npz", {"lobe": nan_lobe}),
                 write("short.npz", replace_arrays={"lobe_spectral": np.ones((3, 2), np.float32)}),
                 write("missing.npz", drop="lobe_spectral"),
-                write("future.npz", {"version": 3})):
+                write("future.npz", {"version": 4})):
         with pytest.raises(ValueError, match=bad.name):
             FactoredBRDF.load(bad)
