@@ -79,8 +79,8 @@ def _measure(scene, comparison, lights: int) -> tuple[dict, np.ndarray, dict]:
 
 def eevee_section(scene, comparison, images: Path) -> dict:
     """Apply the EEVEE path to every drawn material, with the key light alone spectral
-    (the default) and then with every light of the scene spectral (up to the node
-    group's limit); render, compare; write the figure of the second."""
+    and then with every light of the scene spectral (the default, up to the node group's
+    limit); render, compare; write the figure of the second."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -143,9 +143,10 @@ def report_lines(section: dict) -> list[str]:
     lines = ["", "## EEVEE node groups", "",
              "Every material above through its EEVEE node group (`spectral.eevee_apply`), "
              "rendered twice in this run: with the key light (the light bringing the most "
-             "irradiance to the material's objects) reconstructed spectrally from the factor "
-             "packs in nodes, the add-on's default, and with every light of the scene so "
-             f"reconstructed (*Spectral lights* {every}). Spectral lights are shown through an "
+             "irradiance to the material's objects) alone reconstructed spectrally from the "
+             "factor packs in nodes (*Spectral lights* 1), and with every light of the scene "
+             f"so reconstructed ({every} here), the add-on's default (*Spectral lights* up to "
+             f"{eevee.MAX_SPECTRAL_LIGHTS}). Spectral lights are shown through an "
              "Emission and cast no shadow on the material; the other lights and the world "
              "reach a Principled BSDF fitted to the factors (Lambert + GGX) under the other "
              "lights' spectrum. "

@@ -64,10 +64,11 @@ class SPECTRAL_PG_scene(bpy.types.PropertyGroup):
                                    description="Largest ΔE94 the spectral basis may cost any "
                                                "light × material pair, against 5 nm")
     eevee_spectral_lights: IntProperty(
-        name="Spectral lights", default=1, min=1, max=MAX_SPECTRAL_LIGHTS,
-        description="Lights the EEVEE node group evaluates spectrally through the factor "
-                    "packs (the brightest at the material first); they cast no shadow on "
-                    "the material, the others keep EEVEE's shadows and are shaded in RGB")
+        name="Spectral lights", default=MAX_SPECTRAL_LIGHTS, min=1, max=MAX_SPECTRAL_LIGHTS,
+        description="At most this many lights the EEVEE node group evaluates spectrally "
+                    "through the factor packs (the brightest at the material first; fewer "
+                    "where the nodes would exceed EEVEE's limit). They cast no shadow on "
+                    "the material; the others keep EEVEE's shadows and are shaded in RGB")
     basis_max_size: IntProperty(name="Max basis size", default=16, soft_min=1, soft_max=32,
                                 description="Upper bound on basis coefficients")
     basis_size: IntProperty(name="Basis size", min=0,

@@ -164,15 +164,16 @@ def _add_frame(material, group) -> tuple:
     return output, original
 
 
-def apply_eevee(material, scene, *, light_object=None, lights: int = 1,
+def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRAL_LIGHTS,
                 measure: bool = False) -> dict:
     """Add the EEVEE reconstruction to ``material``; returns node and sampler counts.
 
-    ``lights``: how many lights are evaluated spectrally (:func:`spectral_lights`, the
-    key light ``light_object`` or the brightest first); they cast no shadow on the
-    material, the others keep EEVEE's shadows. ``measure`` also computes the key-light
-    term's ΔE94 against the 5 nm reference (``core.prefilter.key_light_error``; a
-    fraction of a second), kept with the record.
+    ``lights``: at most how many lights are evaluated spectrally (:func:`spectral_lights`,
+    the key light ``light_object`` or the brightest first); fewer where the node group
+    would not fit EEVEE's node constants (``counts["lights_left_to_rgb"]`` names them).
+    They cast no shadow on the material; the others keep EEVEE's shadows. ``measure``
+    also computes the key-light term's ΔE94 against the 5 nm reference
+    (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
     """
     if material.spectral.result.image is None:
         raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
@@ -182,48 +183,80 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = 1,
     spectral = {obj.name: light for obj, light, _ in irradiances}
     for obj in chosen:              # a key light passed in need not be one drawn here
         spectral.setdefault(obj.name, scene_lights.spectral_light(obj))
-    light_object = chosen[0]
-    light = spectral[light_object.name]
     white = colour_pipeline.white_xyz(scene.spectral.adaptation_white, sources.WAVELENGTHS)
     to_rgb = prefilter.scene_linear_matrix(white, working_space())
-    # The Principled BSDF is what the other lights see: fitted under their spectrum.
-    fill = prefilter.fill_light([(other, irradiance) for obj, other, irradiance
-                                 in irradiances if obj not in chosen], sources.WAVELENGTHS)
-    fit = prefilter.fit_principled(model, fill or light, to_rgb)
     objects = _objects_using(scene, material)
-    use_uv = any(o.type == "MESH" and o.data.uv_layers.active is not None for o in objects)
     image = material.spectral.result.image
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
-    keys = [eevee_nodes.KeyLight(
-        obj.name, obj.data.type,
-        prefilter.key_light_rgb_weights(model, spectral[obj.name], to_rgb),
-        prefilter.key_light_lobe_rgb_weights(model, spectral[obj.name], to_rgb))
-        for obj in chosen]
-    # Built under a scratch name and checked before anything of the material changes.
-    scratch_name = eevee_nodes.group_name(material) + " (building)"
-    group = eevee_nodes.build_group(material, model, image, keys, fit, use_uv_tangent=use_uv,
-                                    name=scratch_name)
-    _check_uniform_block(material, model, group, len(chosen))
+    build = _Build(material, model, image, spectral, irradiances, to_rgb,
+                   use_uv=any(o.type == "MESH" and o.data.uv_layers.active is not None
+                              for o in objects))
+    group, fill, fit, used = build.fitting(chosen)
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group.name = eevee_nodes.group_name(material)
     output, original = _add_frame(material, group)
-    previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in chosen}
+    previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in used}
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
-    counts["lights"] = [obj.name for obj in chosen]
+    counts["lights"] = [obj.name for obj in used]
+    counts["lights_left_to_rgb"] = [obj.name for obj in chosen[len(used):]]
     counts["fit"] = {"base_color": [float(v) for v in fit["base_color"]],
                      "roughness": fit["roughness"], "specular": fit["specular"],
                      "relative_rms": fit["relative_rms"],
                      "under": "other lights" if fill is not None else "key light"}
+    light = spectral[used[0].name]
     if measure:
         brdf = sources.material_inputs(material).brdf()
         counts["de94"] = prefilter.key_light_error(brdf, model, light, to_rgb)
     material[ORIGINAL_KEY] = json.dumps({
-        "output": output.name, "link": original, "light": light_object.name,
+        "output": output.name, "link": original, "light": used[0].name,
         "receivers": previous_receivers,
         "working_space": working_space(), **counts})
     material.update_tag()
     return counts
+
+
+class _Build:
+    """The node group of one application, for a given set of spectral lights."""
+
+    def __init__(self, material, model, image, spectral: dict, irradiances: list,
+                 to_rgb: np.ndarray, use_uv: bool):
+        self.material, self.model, self.image = material, model, image
+        self.spectral, self.irradiances, self.to_rgb = spectral, irradiances, to_rgb
+        self.use_uv = use_uv
+
+    def group(self, chosen: list) -> tuple:
+        """(group under a scratch name, fill light, Principled fit) for ``chosen``."""
+        # The Principled BSDF is what the other lights see: fitted under their spectrum.
+        fill = prefilter.fill_light([(other, irradiance) for obj, other, irradiance
+                                     in self.irradiances if obj not in chosen],
+                                    sources.WAVELENGTHS)
+        fit = prefilter.fit_principled(self.model, fill or self.spectral[chosen[0].name],
+                                       self.to_rgb)
+        keys = [eevee_nodes.KeyLight(
+            obj.name, obj.data.type,
+            prefilter.key_light_rgb_weights(self.model, self.spectral[obj.name], self.to_rgb),
+            prefilter.key_light_lobe_rgb_weights(self.model, self.spectral[obj.name],
+                                                 self.to_rgb))
+            for obj in chosen]
+        # Built under a scratch name and checked before anything of the material changes.
+        group = eevee_nodes.build_group(self.material, self.model, self.image, keys, fit,
+                                        use_uv_tangent=self.use_uv,
+                                        name=eevee_nodes.group_name(self.material)
+                                        + " (building)")
+        return group, fill, fit
+
+    def fitting(self, chosen: list) -> tuple:
+        """The group of the most of ``chosen`` (in order) that fits EEVEE's node constants:
+        (group, fill, fit, lights used); EEVEEError when not even the key light fits."""
+        for count in range(len(chosen), 0, -1):
+            group, fill, fit = self.group(chosen[:count])
+            if count == 1 or eevee_nodes.uniform_bytes(group) <= \
+                    eevee_nodes.UNIFORM_BLOCK_LIMIT:
+                break
+            bpy.data.node_groups.remove(group)
+        _check_uniform_block(self.material, self.model, group, count)
+        return group, fill, fit, chosen[:count]
 
 
 def applied(material) -> dict | None:

@@ -32,10 +32,13 @@ class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         de = counts["de94"]
-        self.report({"INFO"}, f"'{material.name}': {len(counts['lights'])} spectral "
-                              f"light(s), {counts['nodes']} nodes, {counts['images']} "
-                              f"texture(s); key light ΔE94 mean {de['mean']:.3f}, p95 "
-                              f"{de['p95']:.3f} against 5 nm")
+        rgb = counts["lights_left_to_rgb"]
+        self.report({"INFO"}, f"'{material.name}': spectral light(s) "
+                              f"{', '.join(counts['lights'])}, {counts['nodes']} nodes, "
+                              f"{counts['images']} texture(s); key light ΔE94 mean "
+                              f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm"
+                              + (f"; {', '.join(rgb)} left to RGB: the nodes would exceed "
+                                 "EEVEE's limit" if rgb else ""))
         return {"FINISHED"}
 
 

@@ -164,6 +164,31 @@ def test_over_the_uniform_block_limit_is_refused_and_nothing_changes(clean_scene
     assert not any(g.name.endswith("(building)") for g in bpy.data.node_groups)
 
 
+def test_lights_beyond_the_limit_are_left_to_rgb(clean_scene, iso_model, monkeypatch):
+    """By default every light reaching the material (up to 4) is spectral; where the group
+    would not fit EEVEE's node constants, the dimmest are left to the Principled BSDF and
+    named, and the material still gets its group."""
+    material = cube_material(iso_model, node_tree=True)
+    fill = bpy.data.objects.new("Fill", bpy.data.lights.new("Fill", "POINT"))
+    fill.location = (3.0, -2.0, 2.0)
+    fill.data.energy = 20.0
+    clean_scene.collection.objects.link(fill)
+    bpy.context.view_layer.update()
+    assert clean_scene.spectral.eevee_spectral_lights == eevee.MAX_SPECTRAL_LIGHTS
+    both = eevee.apply_eevee(material, clean_scene,
+                             lights=clean_scene.spectral.eevee_spectral_lights)
+    assert both["lights"] == ["Light", "Fill"] and both["lights_left_to_rgb"] == []
+    one = eevee.apply_eevee(material, clean_scene, lights=1)
+    monkeypatch.setattr(eevee_nodes, "UNIFORM_BLOCK_LIMIT", one["uniform_bytes"] + 1)
+    counts = eevee.apply_eevee(material, clean_scene)
+    assert counts["lights"] == ["Light"] and counts["lights_left_to_rgb"] == ["Fill"]
+    assert counts["fit"]["under"] == "other lights"
+    assert not any(g.name.endswith("(building)") for g in bpy.data.node_groups)
+    cube = bpy.data.objects["Cube"]
+    assert bpy.data.objects["Fill"].light_linking.receiver_collection is None
+    assert cube.name in bpy.data.objects["Light"].light_linking.receiver_collection.objects
+
+
 def _synthetic_hd(packs: int):
     """The benchmark's hd layout (90×45×90×45, 8 basis vectors) with random factors."""
     from spectral_materials.core.brdf.factored import FactoredBRDF
