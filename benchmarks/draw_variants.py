@@ -12,6 +12,10 @@
 * **Specular lobe** (issue 18): the same packs with an analytic Ashikhmin–Shirley lobe
   beside them (``core/brdf/lobe.py``, ``glsl/brdf/specular_lobe.glsl``: closed-form ALU
   per light and two more light-row texels) against the packs alone.
+* **Measured cells** (issue 18): packs and lobe drawn in MERL's 90×90×180 cells
+  (``core/brdf/measured_cells.py``, ``glsl/brdf/measured_cells.glsl``: Rusinkiewicz's
+  angles, the cell's centre and the inverse per light, and the light-by-light loop)
+  against the same packs and lobe drawn smooth.
 * **Texel blend** (issue 19): BTF texels blended across their edges
   (``render.EDGE_BLEND``) against nearest texels (the same variant compiled with a band
   of 0), on :mod:`benchmarks.btf`'s corduroy fits and UV sphere (800², 4 repeats).
@@ -41,6 +45,7 @@ from spectral_materials.blender.gpu.context import ensure_gpu
 from spectral_materials.blender.gpu.display import DisplaySettings
 from spectral_materials.blender.gpu.textures import float_texture
 from spectral_materials.core.brdf.lobe import SpecularLobe
+from spectral_materials.core.brdf.measured_cells import MERL_SHAPE
 from spectral_materials.core.brdf.shading import light_texels
 
 from . import harness
@@ -52,12 +57,14 @@ from .synthetic import DISC_FRACTION, synthetic_model
 CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
          ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4),
          ("light loop", 4, 4), ("light loop", 22, 4), ("light loop", 4, 8),
-         ("specular lobe", 4, 1), ("specular lobe", 4, 4))
+         ("specular lobe", 4, 1), ("specular lobe", 4, 4),
+         ("measured cells", 4, 1), ("measured cells", 4, 4))
 #: BTF cases: (comparison, reflectance-field kind, lights), on their own target.
 BTF_CASES = (("texel blend", "RFP", 1), ("texel blend", "RFNL", 1), ("texel blend", "RFNL", 4))
 LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer"),
           "light loop": ("light by light", "view axes once per pack"),
           "specular lobe": ("packs alone", "packs + lobe"),
+          "measured cells": ("packs + lobe, smooth", "packs + lobe in MERL cells"),
           "texel blend": ("nearest texel", "blended edges")}
 #: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack.
 HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1"
@@ -99,10 +106,14 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
             key = material.key(lights, precontract=True, output="DISPLAY")
             out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
-    if comparison == "specular lobe":
+    if comparison in ("specular lobe", "measured cells"):
+        lobe = benchmark_lobe(model.spectral_size)
+        variants = ([replace(model, lobe=None), replace(model, lobe=lobe)]
+                    if comparison == "specular lobe" else
+                    [replace(model, lobe=lobe), replace(model, lobe=lobe, cells=MERL_SHAPE)])
         out = []
-        for lobe in (None, benchmark_lobe(model.spectral_size)):
-            material = GPUMaterial(replace(model, lobe=lobe))
+        for variant in variants:
+            material = GPUMaterial(variant)
             key = material.key(lights, precontract=True, output="DISPLAY")
             out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
@@ -209,7 +220,9 @@ def markdown(results: dict) -> list[str]:
              "`sm_lights` against the light texture (issue 19). *Light loop*: with several "
              "lights, packs outermost and θo's factors fetched once per pack for all lights, "
              "against the light-by-light loop (issue 19). *Specular lobe*: the same packs "
-             "with an analytic Ashikhmin–Shirley lobe beside them (issue 18). These four: "
+             "with an analytic Ashikhmin–Shirley lobe beside them (issue 18). *Measured cells*: "
+             "packs and lobe drawn in MERL's 90×90×180 cells against the same drawn smooth "
+             "(issue 18). These five: "
              "io_iso 90×180×90, "
              "pre-contracted, synthetic packs, on the draw benchmark's sphere. *Texel "
              "blend*: BTF texels blended within 1/16 texel of their edges against nearest "
