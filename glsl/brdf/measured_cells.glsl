@@ -27,22 +27,11 @@ void sm_hd_inverse(float th, float ph, float td, float pd, out vec3 wi, out vec3
   wo = 2.0 * dot(wi, h) * h - wi;
 }
 
-/* The BRDF (XYZ per unit irradiance, without the cosine) at a cell's centre; false where
- * the centre is below the horizon. */
-bool sm_cell_brdf(int ih, int id, int ip, float ph, float upper, int light, out vec3 f)
-{
-  vec3 c = sm_cell_centre(ih, id, ip);
-  vec3 wi, wo;
-  sm_hd_inverse(c.x, ph, c.y, c.z + upper * SM_PI, wi, wo);
-  f = vec3(0.0);
-  if (wi.z <= 0.0 || wo.z <= 0.0) {
-    return false;
-  }
-  f = sm_stored_xyz(wi, wo, light) / max(wi.z, SM_MIN_CENTRE_COSINE);
-  return true;
-}
-
-/* f·cosθi of the pair (wi, wo) in cells; both above the horizon. */
+/* f·cosθi of the pair (wi, wo) in cells; both above the horizon. One call site of the
+ * packs for the cell and its fill: candidate 0 is the cell's centre (most pixels stop
+ * there), 1–6 its face neighbours' centres, taken when the cell's centre is below the
+ * horizon, and 7 the pair itself where none of them was above it. Six call sites cost
+ * 3× a frame on llvmpipe for the few pixels that need them (docs/bench_draw_variants.md). */
 vec3 sm_cells_xyz(vec3 wi, vec3 wo, int light)
 {
   vec4 hd = sm_half_difference(wi, wo); /* θh, φh, θd, φd ∈ [0, 2π) */
@@ -50,28 +39,32 @@ vec3 sm_cells_xyz(vec3 wi, vec3 wo, int light)
                  SM_CELLS_H - 1);
   int id = clamp(int(floor(hd.z / (0.5 * SM_PI) * float(SM_CELLS_D))), 0, SM_CELLS_D - 1);
   float upper = hd.w > SM_PI ? 1.0 : 0.0;
-  float pd = hd.w - upper * SM_PI;
-  int ip = clamp(int(floor(pd / SM_PI * float(SM_CELLS_P))), 0, SM_CELLS_P - 1);
-  vec3 f;
-  if (!sm_cell_brdf(ih, id, ip, hd.y, upper, light, f)) {
-    vec3 total = vec3(0.0);
-    float count = 0.0;
-    for (int k = 0; k < 6; k++) {
-      int axis = k / 2;
-      int step = (k % 2 == 0) ? -1 : 1;
+  int ip = clamp(int(floor((hd.w - upper * SM_PI) / SM_PI * float(SM_CELLS_P))), 0,
+                 SM_CELLS_P - 1);
+  vec3 total = vec3(0.0);
+  float count = 0.0;
+  for (int k = 0; k < 8; k++) {
+    vec3 a = wi, b = wo;
+    bool take = count == 0.0; /* candidate 7: the pair itself */
+    if (k < 7) {
+      int axis = (k - 1) / 2;
+      int step = k == 0 ? 0 : ((k % 2 == 1) ? -1 : 1);
       int jh = ih + (axis == 0 ? step : 0);
       int jd = id + (axis == 1 ? step : 0);
       int jp = ip + (axis == 2 ? step : 0);
-      vec3 g;
-      if (jh >= 0 && jh < SM_CELLS_H && jd >= 0 && jd < SM_CELLS_D &&
-          sm_cell_brdf(jh, jd, jp, hd.y, upper, light, g))
-      {
-        total += g;
-        count += 1.0;
-      }
+      vec3 c = sm_cell_centre(jh, jd, jp);
+      sm_hd_inverse(c.x, hd.y, c.y, c.z + upper * SM_PI, a, b);
+      take = jh >= 0 && jh < SM_CELLS_H && jd >= 0 && jd < SM_CELLS_D && a.z > 0.0 &&
+             b.z > 0.0;
     }
-    f = count > 0.0 ? total / count : sm_stored_xyz(wi, wo, light) / max(wi.z, SM_MIN_CENTRE_COSINE);
+    if (take) {
+      total += sm_stored_xyz(a, b, light) / max(a.z, SM_MIN_CENTRE_COSINE);
+      count += 1.0;
+    }
+    if (k == 0 && count > 0.0) {
+      break;
+    }
   }
-  return f * wi.z;
+  return total / count * wi.z;
 }
 #endif
