@@ -30,8 +30,8 @@ void sm_hd_inverse(float th, float ph, float td, float pd, out vec3 wi, out vec3
 /* f·cosθi of the pair (wi, wo) in cells; both above the horizon. One call site of the
  * packs for the cell and its fill: candidate 0 is the cell's centre (most pixels stop
  * there), 1–6 its face neighbours' centres, taken when the cell's centre is below the
- * horizon, and 7 the pair itself where none of them was above it. Six call sites cost
- * 3× a frame on llvmpipe for the few pixels that need them (docs/bench_draw_variants.md). */
+ * horizon, and 7 the pair itself where none of them was above it. A call site per
+ * candidate made every pixel pay for the few that need the fill (on llvmpipe). */
 vec3 sm_cells_xyz(vec3 wi, vec3 wo, int light)
 {
   vec4 hd = sm_half_difference(wi, wo); /* θh, φh, θd, φd ∈ [0, 2π) */
@@ -48,10 +48,10 @@ vec3 sm_cells_xyz(vec3 wi, vec3 wo, int light)
     bool take = count == 0.0; /* candidate 7: the pair itself */
     if (k < 7) {
       int axis = (k - 1) / 2;
-      int step = k == 0 ? 0 : ((k % 2 == 1) ? -1 : 1);
-      int jh = ih + (axis == 0 ? step : 0);
-      int jd = id + (axis == 1 ? step : 0);
-      int jp = ip + (axis == 2 ? step : 0);
+      int offset = k == 0 ? 0 : ((k % 2 == 1) ? -1 : 1);
+      int jh = ih + (axis == 0 ? offset : 0);
+      int jd = id + (axis == 1 ? offset : 0);
+      int jp = ip + (axis == 2 ? offset : 0);
       vec3 c = sm_cell_centre(jh, jd, jp);
       sm_hd_inverse(c.x, hd.y, c.y, c.z + upper * SM_PI, a, b);
       take = jh >= 0 && jh < SM_CELLS_H && jd >= 0 && jd < SM_CELLS_D && a.z > 0.0 &&

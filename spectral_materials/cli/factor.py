@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..core.brdf.job import CELL_SETTINGS
 from ..core.brdf.lobe import LOBE_FAMILIES
 from ..core.brdf.params import PARAMETERIZATIONS
 from .arguments import basis_arg, int_in, positive_float
@@ -92,7 +91,6 @@ def _resolve_parameterization(args, brdf, table_file, wavelengths):
 def _fit(args, brdf, table_file, wavelengths, progress: Progress):
     """Tabulate and factor → ``(table, fitted models, requested pack counts)``."""
     from ..core.brdf.factor import factor_brdf_series, prepare_table
-    from ..core.brdf.job import drawn_cells
 
     param, name, iso, resolution = _resolve_parameterization(args, brdf, table_file, wavelengths)
     label = args.input if table_file is None else str(table_file.path)
@@ -104,8 +102,7 @@ def _fit(args, brdf, table_file, wavelengths, progress: Progress):
     progress.check()
     table = prepare_table(brdf, parameterization=name, isotropic=iso, resolution=resolution,
                           wavelengths=wavelengths, spectral_basis=args.basis,
-                          lobe=None if args.lobe == "off" else args.lobe,
-                          cells=drawn_cells(brdf, args.cells), callback=progress)
+                          lobe=None if args.lobe == "off" else args.lobe, callback=progress)
     counts = sorted(set(args.packs)) if args.packs else None
     series = factor_brdf_series(
         brdf, pack_counts=counts if counts and len(counts) > 1 else None, table=table,
@@ -188,9 +185,6 @@ def _add_factoring_options(p: argparse.ArgumentParser) -> None:
                    help="fit an analytic specular lobe and factor the rest beside it "
                         "(core/brdf/lobe.py); the add-on's Automatic keeps it only where it "
                         "measures better")
-    g.add_argument("--cells", choices=CELL_SETTINGS, default="auto",
-                   help="draw a measured table in its own cells, as its readers look it up "
-                        "(core/brdf/measured_cells.py; auto: for MERL files), or smooth")
     g.add_argument("--method", choices=("joint", "greedy", "svd", "nd"), default="joint",
                    help="default joint")
     g.add_argument("--seed", type=int, default=0)

@@ -20,7 +20,7 @@ import numpy as np
 from ...core.brdf import factor, models
 from ...core.brdf.params import get_parameterization
 from ...core.colour import spectra
-from ...core.formats.brdf_files import read_brdf_file
+from ...core.formats.brdf_files import looked_up_in_cells, read_brdf_file
 from ..lights.spd import (
     WAVELENGTHS,
     SourceError,
@@ -106,10 +106,10 @@ class MaterialInputs:
             "theta_cells": self.theta_cells, "packs": self.packs,
             "target_de94": self.target_de94, "pack_size": self.pack_size,
             "smoothing": self.smoothing, "lobe": self.lobe, "automatic": self.automatic,
-            # Only where it can change the result (a file looked up in cells, or a setting
-            # other than the default), so that analytic materials keep their hash.
-            **({"cells": self.cells} if self.source == "file" or self.cells != "auto"
-               else {}),
+            # Only where it can change the result (a file looked up in cells), so that other
+            # materials keep their hash.
+            **({"cells": self.cells} if self.source == "file"
+               and looked_up_in_cells(self.filepath or "") else {}),
         }
 
 
@@ -203,7 +203,8 @@ def material_inputs(material) -> MaterialInputs:
                   target_de94=float(s.target_de94) if s.use_target else None,
                   pack_size=int(s.pack_size), smoothing=int(s.smoothing),
                   lobe=s.specular_lobe.lower(), automatic=s.parameterization == "AUTO",
-                  cells=s.measured_cells.lower())
+                  # The setting is shown, and has a meaning, for data files only.
+                  cells=s.measured_cells.lower() if s.source == "FILE" else "auto")
     if s.source == "FILE":
         path = _abspath(s.filepath)
         if not path:

@@ -26,7 +26,7 @@ def _cell(g, value, cells: int, scale: float, column: int, warp: bool, label: st
                   float(cells - 1), column=column + 3, label=label)
 
 
-def cell_centre_pair(g, coords: list, wi, wo, cells: tuple, column: int):
+def cell_centre_pair(g, coords: list, wi, wo, cells: tuple, column: int) -> tuple:
     """(wi, wo, cosine ratio) at the centre of the pair's cell; ``coords`` are the pair's
     (θh, φh, θd, φd) sockets. Where the centre is below the horizon: the pair itself and 1.
     The ratio cosθi / max(cos θi,centre, MIN_CENTRE_COSINE) turns the packs' f·cosθi at the

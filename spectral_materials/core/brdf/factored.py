@@ -166,7 +166,8 @@ class FactoredBRDF:
         """
         values = np.maximum(self._to_wavelengths(self.coefficients(wi, wo)), 0.0)
         if self.cosine_weighted:
-            values = values / np.maximum(np.asarray(wi)[:, 2:3], 1e-4)
+            values = values / np.maximum(np.asarray(wi)[:, 2:3],
+                                         measured_cells.MIN_CENTRE_COSINE)
         return values
 
     def xyz(self, wi: np.ndarray, wo: np.ndarray,
@@ -300,7 +301,11 @@ class FactoredBRDF:
             report=meta.get("report", {}),
         )
         if meta.get("cells") is not None:
-            kwargs["cells"] = tuple(int(n) for n in meta["cells"])
+            cells = meta["cells"]
+            if not isinstance(cells, list) or not all(
+                    isinstance(n, int) and not isinstance(n, bool) for n in cells):
+                raise ValueError(f"cells must be a list of integer counts, got {cells!r}")
+            kwargs["cells"] = tuple(cells)
         lobe = meta.get("lobe")
         if lobe is not None:
             kwargs["lobe"] = SpecularLobe(str(lobe["family"]), float(lobe["nu"]),

@@ -142,6 +142,8 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     if options.automatic and options.horizon_choices:
         models, lobe_report = _automatic_horizon(brdf, models, lobe_report, fit,
                                                  lobe_options, plain_options, callback)
+    if options.automatic and cells is not None and options.target_de94 is None:
+        models, lobe_report = _best_packs_in_cells(brdf, models, lobe_report)
     report(callback, 0.95, "measuring ΔE94")
     series = _measured_series(models, error, lobe_report)
     final = models[-1]
@@ -175,6 +177,21 @@ def _automatic_horizon(brdf, models: list[FactoredBRDF],
     models, refined = grazing.refine_theta(
         brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
     return models, {**figures, **refined, **grazing.choose_edge(brdf, models)}
+
+
+def _best_packs_in_cells(brdf, models: list[FactoredBRDF], figures: dict
+                         ) -> tuple[list[FactoredBRDF], dict]:
+    """Automatic in cells keeps the pack count that measures best at the check pairs.
+
+    The packs are fitted to the table's steps at their own grid's points and read at the
+    cells' centres, which lie elsewhere: past the first packs, more of them follow the
+    steps between those points more closely and can measure worse at the centres (the
+    MERL round trip: docs/bench_colour_targets.md, "Error against time")."""
+    check = metrics.ProtocolError(brdf, count=LOBE_CHECK_PAIRS, seed=LOBE_CHECK_SEED)
+    means = [check.stats(model)["mean"] for model in models]
+    best = int(np.argmin(means))
+    return models[: best + 1], {**figures, "cells_check_de94": means,
+                                "cells_packs_kept": models[best].packs}
 
 
 def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,

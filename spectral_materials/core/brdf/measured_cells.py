@@ -22,7 +22,9 @@ where none does (cells two or more steps below the horizon, which pairs above it
 only within a fraction of a degree of grazing).
 
 The grid is MERL's: θh in ``n_h`` cells with square-root spacing, θd in ``n_d`` linear
-cells over [0, π/2], φd folded into [0, π) by reciprocity in ``n_p`` cells.
+cells over [0, π/2], φd folded into [0, π) by reciprocity in ``n_p`` cells. A pair is
+evaluated at its cell's centre on its own half of the φd circle, which a reciprocal BRDF
+allows (the reader folds; a model that is not reciprocal would differ on the upper half).
 ``glsl/brdf/measured_cells.glsl`` mirrors :func:`in_cells`.
 """
 
@@ -39,7 +41,8 @@ from .params import _hd_forward, _hd_inverse
 MERL_SHAPE = (90, 90, 180)
 #: Most cells along one axis a model may name (a hostile file's count stays a small int).
 MAX_CELLS = 4096
-#: Smallest cosθi a cell centre's value is divided by, as ``FactoredBRDF.evaluate``.
+#: Smallest cosθi a cell centre's f·cosθi is divided by (a centre within 0.006° of the
+#: horizon), as ``FactoredBRDF.evaluate`` divides.
 MIN_CENTRE_COSINE = 1e-4
 _HALF_PI = 0.5 * math.pi
 #: The six face neighbours (Δθh, Δθd, Δφd) of a cell.

@@ -33,6 +33,15 @@ READERS = {
 }
 
 
+#: Suffixes whose readers look pairs up in cells (``lookup_cells``: MERL's nearest cell).
+LOOKED_UP_IN_CELLS = frozenset({".binary"})
+
+
+def looked_up_in_cells(path: str | Path) -> bool:
+    """Whether the file's reader looks pairs up in cells (its suffix says; no reading)."""
+    return Path(path).suffix.lower() in LOOKED_UP_IN_CELLS
+
+
 def read_brdf_file(path: str | Path):
     """The BRDF callable of a data file, chosen by its suffix; InvalidBRDFData otherwise."""
     path = Path(path)

@@ -126,6 +126,26 @@ def test_hostile_cells_are_refused(tmp_path, cells):
         model.validate()
 
 
+@pytest.mark.parametrize("cells", ["Infinity", "1e400", "9.7", "true", '"9"', "[9, 9]",
+                                   "[0, 9, 18]", "[9, 9, 1e400]", "[9, 9, true]", "{}"])
+def test_hostile_cells_in_a_file_are_refused_naming_it(tmp_path, cells):
+    """A file whose meta names absurd cells: a ValueError naming the file, never another
+    exception or a truncated count."""
+    import json
+
+    path = _small_model(cells=(9, 9, 18)).save(tmp_path / "good.npz")
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    text = arrays["meta"].tobytes().decode().replace('"cells": [9, 9, 18]', f'"cells": {cells}')
+    assert text != arrays["meta"].tobytes().decode()
+    json.loads(text.replace("Infinity", "0"))          # still JSON, apart from Infinity
+    arrays["meta"] = np.frombuffer(text.encode(), dtype=np.uint8)
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **arrays)
+    with pytest.raises(ValueError, match="bad.npz"):
+        FactoredBRDF.load(bad)
+
+
 def test_nan_pairs_are_refused_in_cells():
     model = _small_model(cells=(9, 9, 18))
     wi, wo = metrics.random_direction_pairs(4)
@@ -149,7 +169,8 @@ def test_measured_case_meets_the_goals_in_cells():
     """Issue 18's measured case (benchmarks.measured: Ashikhmin–Shirley 32/32 of
     ColorChecker patch 12 in linear sRGB written as MERL, read back with Smits) at the
     add-on's default material settings (benchmarks.colour_targets): drawn in cells it meets
-    mean ≤ 0.5, p95 ≤ 1 and max ≤ 5 against the reader; drawn smooth it does not."""
+    mean ≤ 0.5, p95 ≤ 1 and max ≤ 5 against the reader; drawn smooth it does not. In
+    cells Automatic keeps the pack count that measures best at its own check pairs."""
     from benchmarks import colour_targets, measured
 
     brdf, _ = measured.merl_round_trip(measured.RGBModel(measured.patch_rgb(measured.PATCH)))
@@ -160,6 +181,9 @@ def test_measured_case_meets_the_goals_in_cells():
     error = metrics.ProtocolError(brdf)
     model = factor_material(brdf, basis, options).model
     assert model.cells == merl.MERL_SHAPE
+    # Automatic kept the pack count that measured best at its check pairs.
+    means = model.report["cells_check_de94"]
+    assert len(means) == options.packs and model.packs == 1 + int(np.argmin(means))
     cells = error.stats(model)
     smooth = error.stats(factor_material(brdf, basis, replace(options, cells="smooth")).model)
     assert cells["mean"] <= 0.5 and cells["p95"] <= 1.0 and cells["max"] <= 5.0, cells
