@@ -49,6 +49,19 @@ def build_model(parameterization: str, brdf: str | None = None, packs: int = 4,
                        spectral_basis=8, cosine_weighted=cosine_weighted)
 
 
+def four_lights() -> list:
+    """A sun, a point, a spot and an area light of four spectra around the protocol sphere."""
+    from spectral_materials.core.lights import SpectralLight
+
+    return [SpectralLight("SUN", spd("D65"), WL, 1.0, axis=(-0.5, -0.2, -0.84)),
+            SpectralLight("POINT", spd("FL2"), WL, 40.0, position=(1.5, 0.5, 2.0)),
+            SpectralLight("SPOT", spd("A"), WL, 60.0, position=(-1.0, 1.0, 2.5),
+                          axis=(0.35, -0.35, -0.87), spot_size=np.radians(60.0),
+                          spot_blend=0.2),
+            SpectralLight("AREA", spd("FL11"), WL, 30.0, position=(0.2, -1.5, 1.5),
+                          axis=(-0.1, 0.7, -0.7))]
+
+
 def spd(name: str) -> np.ndarray:
     return colour_pipeline.illuminant_spd(name, WL)
 

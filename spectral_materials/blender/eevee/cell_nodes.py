@@ -26,6 +26,16 @@ def _cell(g, value, cells: int, scale: float, column: int, warp: bool, label: st
                   float(cells - 1), column=column + 3, label=label)
 
 
+def _unit_vector(g, theta, phi, column: int, label: str):
+    """(sin θ cos φ, sin θ sin φ, cos θ)."""
+    sin_theta = g.math("SINE", theta, column=column)
+    return g.combine(g.math("MULTIPLY", sin_theta, g.math("COSINE", phi, column=column),
+                            column=column + 1),
+                     g.math("MULTIPLY", sin_theta, g.math("SINE", phi, column=column),
+                            column=column + 1),
+                     g.math("COSINE", theta, column=column), column=column + 2, label=label)
+
+
 def cell_centre_pair(g, coords: list, wi, wo, cells: tuple, column: int) -> tuple:
     """(wi, wo, cosine ratio) at the centre of the pair's cell; ``coords`` are the pair's
     (θh, φh, θd, φd) sockets. Where the centre is below the horizon: the pair itself and 1.
@@ -48,12 +58,7 @@ def cell_centre_pair(g, coords: list, wi, wo, cells: tuple, column: int) -> tupl
         "MULTIPLY", g.math("ADD", ip, 0.5, column=column + 4), math.pi / n_p,
         column=column + 5), column=column + 6, label="φd centre")
     # d from (θd, φd), then wi = Rz(φh) Ry(θh) d and wo = 2 (wi·h) h − wi.
-    sin_td = g.math("SINE", td_c, column=column + 6)
-    d = g.combine(g.math("MULTIPLY", sin_td, g.math("COSINE", pd_c, column=column + 6),
-                         column=column + 7),
-                  g.math("MULTIPLY", sin_td, g.math("SINE", pd_c, column=column + 6),
-                         column=column + 7),
-                  g.math("COSINE", td_c, column=column + 6), column=column + 8, label="d")
+    d = _unit_vector(g, td_c, pd_c, column + 6, "d")
     rotate_y = g.node("ShaderNodeVectorRotate", column + 9, "Ry(θh)", rotation_type="Y_AXIS")
     g.feed(rotate_y.inputs["Vector"], d)
     g.feed(rotate_y.inputs["Angle"], th_c)
@@ -61,12 +66,7 @@ def cell_centre_pair(g, coords: list, wi, wo, cells: tuple, column: int) -> tupl
     g.feed(rotate_z.inputs["Vector"], rotate_y.outputs[0])
     g.feed(rotate_z.inputs["Angle"], ph)
     wi_c = rotate_z.outputs[0]
-    sin_th = g.math("SINE", th_c, column=column + 9)
-    h = g.combine(g.math("MULTIPLY", sin_th, g.math("COSINE", ph, column=column + 9),
-                         column=column + 10),
-                  g.math("MULTIPLY", sin_th, g.math("SINE", ph, column=column + 9),
-                         column=column + 10),
-                  g.math("COSINE", th_c, column=column + 9), column=column + 11, label="h")
+    h = _unit_vector(g, th_c, ph, column + 9, "h")
     twice = g.math("MULTIPLY", g.vmath("DOT_PRODUCT", wi_c, h, column=column + 11), 2.0,
                    column=column + 12)
     wo_c = g.vmath("SUBTRACT", g.vmath("SCALE", h, scale=twice, column=column + 12), wi_c,

@@ -12,7 +12,16 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from gpu_helpers import DARK_Y, MAX_DE94, SIZE, WL, delta_e, lights_pair, protocol_pair, spd
+from gpu_helpers import (
+    DARK_Y,
+    MAX_DE94,
+    SIZE,
+    WL,
+    delta_e,
+    four_lights,
+    lights_pair,
+    protocol_pair,
+)
 
 from spectral_materials.blender.brdf.sphere import render_sphere
 from spectral_materials.core.brdf import models
@@ -20,7 +29,6 @@ from spectral_materials.core.brdf.factor import factor_brdf
 from spectral_materials.core.brdf.filtered_factors import drawn_model
 from spectral_materials.core.brdf.shading import sphere_xyz
 from spectral_materials.core.colour import spectra
-from spectral_materials.core.lights import SpectralLight
 
 pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
 
@@ -77,13 +85,7 @@ def test_lobe_changes_the_image(lobe_models):
 def test_lobe_under_several_lights(lobe_models, precontract, edge):
     """Four light kinds at once, each light's θo scale included where the view's axes are
     shared across lights ("horizons" holds θo as well as θi)."""
-    lights = [SpectralLight("SUN", spd("D65"), WL, 1.0, axis=(-0.5, -0.2, -0.84)),
-              SpectralLight("POINT", spd("FL2"), WL, 40.0, position=(1.5, 0.5, 2.0)),
-              SpectralLight("SPOT", spd("A"), WL, 60.0, position=(-1.0, 1.0, 2.5),
-                            axis=(0.35, -0.35, -0.87), spot_size=np.radians(60.0),
-                            spot_blend=0.2),
-              SpectralLight("AREA", spd("FL11"), WL, 30.0, position=(0.2, -1.5, 1.5),
-                            axis=(-0.1, 0.7, -0.7))]
+    lights = four_lights()
     for name in ("io_iso", "io"):
         model = replace(lobe_models[name], edge=edge)
         got, reference = lights_pair(model, lights, precontract=precontract)

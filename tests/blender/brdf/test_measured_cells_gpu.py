@@ -15,13 +15,21 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from gpu_helpers import DARK_Y, MAX_DE94, SIZE, WL, build_model, delta_e, lights_pair, spd
+from gpu_helpers import (
+    DARK_Y,
+    MAX_DE94,
+    SIZE,
+    WL,
+    build_model,
+    delta_e,
+    four_lights,
+    lights_pair,
+)
 
 from spectral_materials.blender.brdf.sphere import render_sphere
 from spectral_materials.core.brdf import measured_cells, models, shading
 from spectral_materials.core.brdf.factor import factor_brdf
 from spectral_materials.core.colour import spectra
-from spectral_materials.core.lights import SpectralLight
 
 pytestmark = [pytest.mark.bpy, pytest.mark.gpu]
 
@@ -136,13 +144,7 @@ def test_cells_change_the_image(cell_models):
 def test_cells_under_several_lights(cell_models):
     """Four kinds of light at once take the light-by-light loop (the view's axes are not
     shared across lights in cells)."""
-    lights = [SpectralLight("SUN", spd("D65"), WL, 1.0, axis=(-0.5, -0.2, -0.84)),
-              SpectralLight("POINT", spd("FL2"), WL, 40.0, position=(1.5, 0.5, 2.0)),
-              SpectralLight("SPOT", spd("A"), WL, 60.0, position=(-1.0, 1.0, 2.5),
-                            axis=(0.35, -0.35, -0.87), spot_size=np.radians(60.0),
-                            spot_blend=0.2),
-              SpectralLight("AREA", spd("FL11"), WL, 30.0, position=(0.2, -1.5, 1.5),
-                            axis=(-0.1, 0.7, -0.7))]
+    lights = four_lights()
     got, reference = lights_pair(cell_models["lobe"], lights)
     lit = reference[:, 1] > DARK_Y
     de = delta_e(reference, got)
