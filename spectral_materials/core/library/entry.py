@@ -41,9 +41,12 @@ def factor_entry(name: str, suffix: str, data: bytes, settings: dict) -> dict:
             param, isotropic = resolve_parameterization(brdf, options.parameterization, None,
                                                         wavelengths)
             resolution = param.theta_resolution(options.theta_cells)
+            # A MERL file is drawn in its cells, as its readers (and the add-on's
+            # Automatic) look it up: core/brdf/measured_cells.py.
             model = factor_brdf(brdf, parameterization=param.name, isotropic=isotropic,
                                 resolution=resolution, packs=options.packs,
-                                wavelengths=wavelengths, spectral_basis=options.basis)
+                                wavelengths=wavelengths, spectral_basis=options.basis,
+                                cells=getattr(brdf, "lookup_cells", None))
             stats = metrics.ProtocolError(brdf).stats(model)
         except (ValueError, OSError) as exc:
             # The reader names the temporary copy; the user knows the file by its name.

@@ -21,6 +21,7 @@ from library_sources import make_sources, write_merl_file
 from spectral_materials.core.brdf import metrics
 from spectral_materials.core.brdf.factored import FactoredBRDF
 from spectral_materials.core.errors import Cancelled
+from spectral_materials.core.formats import merl
 from spectral_materials.core.formats.brdf_files import read_brdf_file
 from spectral_materials.core.library import layout
 from spectral_materials.core.library.build import build_library
@@ -81,6 +82,9 @@ def test_report_rows_measure_the_stored_factors_against_the_file(built):
             assert entry["de94"][key] == pytest.approx(stats[key], rel=1e-9)
         assert entry["packs"] == model.packs == 1 and entry["bytes"] > 0
         assert entry["file_bytes"] == os.path.getsize(entry["source"])
+        # A MERL entry is drawn in the file's cells, as its readers look it up.
+        assert model.cells == (merl.MERL_SHAPE if entry["source"].endswith(".binary")
+                               else None)
 
 
 def test_thumbnails_are_the_stored_spheres(built):
