@@ -101,9 +101,12 @@ def test_an_appended_asset_draws_as_the_material_factored_directly(clean_scene, 
     brdf = read_brdf_file(entry["source"])
     wl = spectra.WAVELENGTHS_REFERENCE
     param, iso = resolve_parameterization(brdf, SETTINGS.parameterization, None, wl)
+    # A MERL entry is drawn in the file's cells (core/library/entry.py).
     direct = factor_brdf(brdf, parameterization=param.name, isotropic=iso,
                          resolution=param.theta_resolution(SETTINGS.theta_cells),
-                         packs=SETTINGS.packs, wavelengths=wl, spectral_basis=SETTINGS.basis)
+                         packs=SETTINGS.packs, wavelengths=wl, spectral_basis=SETTINGS.basis,
+                         cells=brdf.lookup_cells)
+    assert appended.cells == direct.cells == brdf.lookup_cells
     for incidence, illuminant in ((0.0, "D65"), (60.0, "FL2")):
         a = render_sphere(appended, incidence, illuminant, 64)
         b = render_sphere(direct, incidence, illuminant, 64)
