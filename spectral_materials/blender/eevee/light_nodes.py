@@ -57,6 +57,13 @@ def shading_frame(g, use_uv_tangent: bool):
     g.begin("Shading frame")
     geometry = g.node("ShaderNodeNewGeometry", 0, "Geometry")
     n = g.vmath("NORMALIZE", geometry.outputs["Normal"], column=1, label="n")
+    # Two-sided as the draw handler's surface shader: an interpolated normal that faces
+    # away from the viewer (on a front face of a concave smooth mesh, as in Suzanne's eye
+    # sockets) is flipped, where EEVEE flips only back faces.
+    facing = g.math("GREATER_THAN", g.vmath("DOT_PRODUCT", n, geometry.outputs["Incoming"],
+                                            column=1), 0.0, column=1)
+    n = g.vmath("SCALE", n, scale=g.math("MULTIPLY_ADD", facing, 2.0, -1.0, column=1),
+                column=1, label="n, facing the viewer")
     generated = g.vmath("CROSS_PRODUCT", (0.0, 1.0, 0.0), n, column=1, label="ŷ × n")
     has_generated = g.math("GREATER_THAN", g.vmath("LENGTH", generated, column=2), 1e-12,
                            column=3)

@@ -413,3 +413,47 @@ def test_eevee_draws_measured_cells(clean_scene, cells, incidence, illuminant):
     assert de.mean() <= MEAN_BOUND and np.percentile(de, 95) <= P95_BOUND, de.mean()
     if cells == (9, 9, 18):
         assert error(replace(model, cells=None)).mean() > 5 * MEAN_BOUND
+
+
+def test_a_normal_facing_away_is_flipped_as_the_draw_handler_flips_it(clean_scene, iso_model):
+    """On a front face whose interpolated normal faces away from the viewer (a concave
+    smooth mesh: Suzanne's eye sockets drew black in the demo), EEVEE's group shades with
+    the normal flipped towards the viewer, as glsl/brdf/surface_frag.glsl does: the plane
+    renders as the float64 mirror of the two-sided draw."""
+    from spectral_materials.blender.eevee.render import (
+        _render_rgb,
+        black_world,
+        new_sun,
+        scene_linear_to_xyz,
+    )
+
+    scene = bpy.data.scenes.new("away")
+    bpy.context.window.scene = scene
+    mesh = bpy.data.meshes.new("away")
+    mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    away = np.array([0.6, 0.0, -0.8])                     # faces down; the camera looks down
+    mesh.normals_split_custom_set_from_vertices([tuple(away)] * 4)
+    plane = bpy.data.objects.new("away", mesh)
+    material = bpy.data.materials.new("away")
+    material.spectral.enabled = True
+    mesh.materials.append(material)
+    storage.store_factored(material, iso_model)
+    sun = new_sun("sun", 30.0, "D65", azimuth_deg=180.0)
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.data.type, camera.data.ortho_scale, camera.location = "ORTHO", 1.0, (0, 0, 5)
+    for obj in (plane, sun, camera):
+        scene.collection.objects.link(obj)
+    scene.camera, scene.world = camera, black_world("black")
+    eevee.apply_eevee(material, scene, light_object=sun, lights=1)
+    rgb, _ = _render_rgb(scene, 16, 1)
+    xyz = scene_linear_to_xyz(rgb, scene.spectral.adaptation_white)
+    light = replace(shading.protocol_sun(0.0, "D65", WL), axis=tuple(
+        -np.array([-np.sin(np.radians(30.0)), 0.0, np.cos(np.radians(30.0))])))
+    reference = shading.shade_xyz(iso_model, np.zeros((1, 3)), away[None],
+                                  np.array([[1.0, 0.0, 0.0]]), shading.View(), [light])
+    to_rgb = prefilter.scene_linear_matrix(colour_pipeline.white_xyz("D65", WL),
+                                           eevee.working_space())
+    de = colour_pipeline.delta_e94(prefilter.clamped_xyz(reference, to_rgb),
+                                   xyz[4:12, 4:12].reshape(-1, 3),
+                                   colour_pipeline.white_xyz("D65", WL))
+    assert reference[0, 1] > 0.05 and de.mean() <= MEAN_BOUND, de.mean()
