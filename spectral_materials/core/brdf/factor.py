@@ -216,14 +216,16 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
     if lobe is None:
         table = tabulate(brdf, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
                          callback=callback)
-        table.cells = cells
-        return table
-    lobe, fit_report = resolve_lobe(brdf, lobe, wl, basis, isotropic,
-                                    scaled(callback, 0.0, 0.5))
-    residual = LobeResidual(brdf, lobe, wl, None if basis is None else basis.vectors, cells)
-    table = tabulate(residual, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
-                     callback=scaled(callback, 0.5 if fit_report else 0.0, 1.0), signed=True)
-    table.lobe, table.lobe_report, table.cells = lobe, fit_report, cells
+    else:
+        lobe, fit_report = resolve_lobe(brdf, lobe, wl, basis, isotropic,
+                                        scaled(callback, 0.0, 0.5))
+        residual = LobeResidual(brdf, lobe, wl, None if basis is None else basis.vectors,
+                                cells)
+        table = tabulate(residual, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
+                         callback=scaled(callback, 0.5 if fit_report else 0.0, 1.0),
+                         signed=True)
+        table.lobe, table.lobe_report = lobe, fit_report
+    table.cells = cells
     return table
 
 

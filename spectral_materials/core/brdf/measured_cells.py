@@ -122,22 +122,24 @@ def in_cells(stored: Callable[[np.ndarray, np.ndarray], np.ndarray], wi: np.ndar
     if valid.all():
         out = brdf(wi_c, wo_c)
     else:
-        out = np.zeros((wi.shape[0], brdf(wi_c[:1], wo_c[:1]).shape[1]))
-        out[valid] = brdf(wi_c[valid], wo_c[valid])
+        centres = brdf(wi_c[valid], wo_c[valid])
+        out = np.zeros((wi.shape[0], centres.shape[1]))
+        out[valid] = centres
         hidden = np.nonzero(~valid)[0]
         out[hidden] = _filled(brdf, wi[hidden], wo[hidden], (ih[hidden], idd[hidden],
-                              ip[hidden]), ph[hidden], upper[hidden], shape)
+                              ip[hidden]), ph[hidden], upper[hidden], shape,
+                              centres.shape[1])
     if cosine_weighted:
         out = out * np.clip(wi[:, 2:3], 0.0, None)
     return out
 
 
-def _filled(brdf, wi, wo, cells, phi_h, upper, shape) -> np.ndarray:
+def _filled(brdf, wi, wo, cells, phi_h, upper, shape, columns: int) -> np.ndarray:
     """The fill's first pass for cells whose centre is below the horizon: the mean of the
     BRDF at the face neighbours' centres above it, or at the pair itself where none is."""
     ih, idd, ip = cells
     n_h, n_d, _ = shape
-    total = np.zeros((wi.shape[0], brdf(wi[:1], wo[:1]).shape[1]))
+    total = np.zeros((wi.shape[0], columns))
     count = np.zeros(wi.shape[0])
     for dh, dd, dp in NEIGHBOUR_STEPS:
         jh, jd = ih + dh, idd + dd

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..brdf import metrics
 from ..brdf.factor import factor_brdf, resolve_parameterization
+from ..brdf.job import drawn_cells
 from ..colour import spectra
 from ..formats.brdf_files import READERS, read_brdf_file
 from .layout import FACTORS_FILE, THUMBNAIL_FILE
@@ -41,12 +42,11 @@ def factor_entry(name: str, suffix: str, data: bytes, settings: dict) -> dict:
             param, isotropic = resolve_parameterization(brdf, options.parameterization, None,
                                                         wavelengths)
             resolution = param.theta_resolution(options.theta_cells)
-            # A MERL file is drawn in its cells, as its readers (and the add-on's
-            # Automatic) look it up: core/brdf/measured_cells.py.
+            # A MERL file is drawn in its cells, as the add-on's Automatic draws it.
             model = factor_brdf(brdf, parameterization=param.name, isotropic=isotropic,
                                 resolution=resolution, packs=options.packs,
                                 wavelengths=wavelengths, spectral_basis=options.basis,
-                                cells=getattr(brdf, "lookup_cells", None))
+                                cells=drawn_cells(brdf, "auto"))
             stats = metrics.ProtocolError(brdf).stats(model)
         except (ValueError, OSError) as exc:
             # The reader names the temporary copy; the user knows the file by its name.

@@ -55,17 +55,20 @@ def test_cosine_reaches_zero_at_the_horizon_and_linear_does_not():
     assert np.all(np.diff(horizon[beyond]) <= 0)       # falls monotonically
 
 
+def _same_lookups(first: tuple, second: tuple, n: int, v: np.ndarray) -> None:
+    """axis_lookup under (axis, edge) ``first`` and ``second`` agree at ``v``."""
+    for a, b in zip(axis_lookup(first[0], n, v, edge=first[1]),
+                    axis_lookup(second[0], n, v, edge=second[1]), strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_other_axes_and_the_low_end_stay_linear():
     n = 10
     v = np.linspace(0.0, math.pi / 2, 77)
-    for a, b in zip(axis_lookup(THETA_O, n, v, edge="horizon"),
-                    axis_lookup(THETA_O, n, v, edge="linear"), strict=True):
-        np.testing.assert_array_equal(a, b)
+    _same_lookups((THETA_O, "horizon"), (THETA_O, "linear"), n, v)
     assert np.all(horizon_scale(THETA_O, n, v) == 1.0)
     low = v < THETA_I.centres(n)[0]
-    for a, b in zip(axis_lookup(THETA_I, n, v[low], edge="horizon"),
-                    axis_lookup(THETA_I, n, v[low], edge="linear"), strict=True):
-        np.testing.assert_array_equal(a, b)
+    _same_lookups((THETA_I, "horizon"), (THETA_I, "linear"), n, v[low])
 
 
 def test_n_dimensional_nan_and_inf():
@@ -150,9 +153,7 @@ def test_horizons_hold_the_view_axis_and_horizon_only_the_light_axis():
     n = 10
     v = np.linspace(0.0, math.pi / 2, 77)
     # Under "horizons" θo behaves as θi does under "horizon"; under "horizon" it is linear.
-    for a, b in zip(axis_lookup(VIEW_THETA_O, n, v, edge="horizons"),
-                    axis_lookup(THETA_I, n, v, edge="horizon"), strict=True):
-        np.testing.assert_array_equal(a, b)
+    _same_lookups((VIEW_THETA_O, "horizons"), (THETA_I, "horizon"), n, v)
     np.testing.assert_array_equal(horizon_scale(VIEW_THETA_O, n, v, "horizons"),
                                   horizon_scale(THETA_I, n, v, "horizon"))
     assert np.all(horizon_scale(VIEW_THETA_O, n, v, "horizon") == 1.0)

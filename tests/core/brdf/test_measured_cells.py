@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from spectral_materials.core.brdf import measured_cells, metrics, models
+from spectral_materials.core.brdf import grazing, measured_cells, metrics, models
 from spectral_materials.core.brdf.factored import FactoredBRDF
 from spectral_materials.core.brdf.job import drawn_cells, factor_material
 from spectral_materials.core.formats import merl
@@ -34,16 +34,6 @@ def merl_file(tmp_path_factory):
     return merl.read_merl(path)
 
 
-def _grazing_pairs(count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Pairs with θi, θo in [70°, 90°): where cells straddle the horizon."""
-    rng = np.random.default_rng(seed)
-    ti, to = np.radians(rng.uniform(70.0, 90.0, (2, count)))
-    pi, po = rng.uniform(0.0, 2 * np.pi, (2, count))
-    wi = np.stack([np.sin(ti) * np.cos(pi), np.sin(ti) * np.sin(pi), np.cos(ti)], -1)
-    wo = np.stack([np.sin(to) * np.cos(po), np.sin(to) * np.sin(po), np.cos(to)], -1)
-    return wi, wo
-
-
 def _below_horizon_centres(wi, wo) -> np.ndarray:
     th, ph, td, pd = measured_cells._hd_forward(wi, wo)
     ih, idd, ip = measured_cells.cell_indices(th, td, pd)
@@ -58,7 +48,7 @@ def test_in_cells_is_the_reader(merl_file, pairs):
     from: equal to the file's float32 rounding, on pairs of cells above the horizon and
     of cells below it alike."""
     wi, wo = (metrics.random_direction_pairs() if pairs == "protocol"
-              else _grazing_pairs(20_000, 7))
+              else grazing.grazing_pairs(20_000, 7, (70.0, 90.0)))
     hidden = _below_horizon_centres(wi, wo)
     assert hidden.sum() > (50 if pairs == "grazing" else 10)
     lit = (wi[:, 2] > 0) & (wo[:, 2] > 0)
