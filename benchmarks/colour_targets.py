@@ -180,12 +180,15 @@ def choose_basis(cases: list[Case], lights: dict[str, str]) -> scene_basis.Scene
 
 
 class Pairs:
-    """The protocol's random pairs and the grazing angle max(θi, θo) of each, in degrees."""
+    """The protocol's random pairs, the grazing angle max(θi, θo) of each, in degrees, and
+    which of the two it is (``incidence``: θi ≥ θo, where f·cosθi falls to 0 at 90°; the
+    others graze the view, where the radiance stays)."""
 
     def __init__(self):
         self.wi, self.wo = metrics.random_direction_pairs()
         lowest = np.minimum(self.wi[:, 2], self.wo[:, 2])
         self.angle = np.degrees(np.arccos(np.clip(lowest, -1.0, 1.0)))
+        self.incidence = self.wi[:, 2] <= self.wo[:, 2]
 
     def reference(self, brdf) -> dict:
         """5 nm reference XYZ under each illuminant."""
@@ -194,25 +197,37 @@ class Pairs:
     def errors(self, model, reference: dict) -> dict:
         """Per illuminant, the ΔE94 statistics of ``model`` (see :func:`error_stats`)."""
         return {ill: error_stats(metrics.delta_e94_image(
-                    reference[ill], model.xyz(self.wi, self.wo, ill), ill), self.angle)
+                    reference[ill], model.xyz(self.wi, self.wo, ill), ill), self.angle,
+                    self.incidence)
                 for ill in ILLUMINANTS}
 
 
-def error_stats(de: np.ndarray, angle: np.ndarray) -> dict:
-    """Mean, p95, max below / beyond 89.5°, per-band mean and max, and the goals met."""
+def error_stats(de: np.ndarray, angle: np.ndarray, incidence: np.ndarray) -> dict:
+    """Mean, p95, max below / beyond 89.5°, per-band mean and max (all pairs; those whose
+    incidence grazes, θi ≥ θo; those whose view grazes), and the goals met."""
     below, beyond = de[angle < GRAZING_DEG], de[angle >= GRAZING_DEG]
     stats = {"mean": float(de.mean()), "p95": float(np.percentile(de, 95)),
              "max": float(de.max()), "count": int(de.size),
              "max_below": float(below.max()) if below.size else 0.0,
-             "max_beyond": float(beyond.max()) if beyond.size else 0.0, "bands": []}
-    for lo, hi in zip(BAND_EDGES_DEG[:-1], BAND_EDGES_DEG[1:]):
-        inside = de[(angle >= lo) & (angle < hi)] if hi < 90.0 else de[angle >= lo]
-        stats["bands"].append({"from": lo, "to": hi, "count": int(inside.size),
-                               "mean": float(inside.mean()) if inside.size else None,
-                               "max": float(inside.max()) if inside.size else None})
+             "max_beyond": float(beyond.max()) if beyond.size else 0.0,
+             "bands": band_stats(de, angle),
+             "bands_incidence": band_stats(de[incidence], angle[incidence]),
+             "bands_view": band_stats(de[~incidence], angle[~incidence])}
     stats["goals"] = {key: stats[key] <= limit for key, limit in GOALS.items()}
     stats["goals"]["falls"] = falls_to_90(stats["bands"])
+    stats["goals"]["falls_incidence"] = falls_to_90(stats["bands_incidence"])
     return stats
+
+
+def band_stats(de: np.ndarray, angle: np.ndarray) -> list[dict]:
+    """Count, mean and max ΔE94 per band of :data:`BAND_EDGES_DEG` (None where empty)."""
+    bands = []
+    for lo, hi in zip(BAND_EDGES_DEG[:-1], BAND_EDGES_DEG[1:]):
+        inside = de[(angle >= lo) & (angle < hi)] if hi < 90.0 else de[angle >= lo]
+        bands.append({"from": lo, "to": hi, "count": int(inside.size),
+                      "mean": float(inside.mean()) if inside.size else None,
+                      "max": float(inside.max()) if inside.size else None})
+    return bands
 
 
 def falls_to_90(bands: list[dict]) -> bool:

@@ -67,8 +67,14 @@ class SPECTRAL_PG_scene(bpy.types.PropertyGroup):
         name="Spectral lights", default=MAX_SPECTRAL_LIGHTS, min=1, max=MAX_SPECTRAL_LIGHTS,
         description="At most this many lights the EEVEE node group evaluates spectrally "
                     "through the factor packs (the brightest at the material first; fewer "
-                    "where the nodes would exceed EEVEE's limit). They cast no shadow on "
-                    "the material; the others keep EEVEE's shadows and are shaded in RGB")
+                    "where the nodes would exceed EEVEE's limit); the others are shaded in "
+                    "RGB, with EEVEE's shadows")
+    eevee_spectral_shadows: BoolProperty(
+        name="Shadows of spectral lights", default=True,
+        description="Keep EEVEE's own shadows of the spectral lights on the material, read "
+                    "through two helper lights per light that light only the material's "
+                    "objects (through transmission); off, the spectral lights cast no "
+                    "shadow on it")
     basis_max_size: IntProperty(name="Max basis size", default=16, soft_min=1, soft_max=32,
                                 description="Upper bound on basis coefficients")
     basis_size: IntProperty(name="Basis size", min=0,

@@ -7,8 +7,8 @@ spectrally) and a Principled BSDF (a Lambert + GGX fit of the factors, for the o
 lights and the world), and links them to the material output. The output's previous
 link is remembered on the material, so ``remove_eevee`` restores the original tree
 exactly. The spectral lights light the object through the Emission only: light linking
-excludes the material's objects from them (restored on removal), so they cast no
-shadow on it.
+excludes the material's objects from them (restored on removal); their shadows on it
+are read through twin lights (``shadow_twins.py``, ``shadow_nodes.py``).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from .. import compat
 from ..brdf import sources, storage
 from ..lights import scene_lights
 from . import nodes as eevee_nodes
+from . import shadow_nodes, shadow_twins
 
 # Served from here for one release: they moved to .render with the rendering helpers.
 __getattr__ = forward_names(__name__, dict.fromkeys(
@@ -165,19 +166,23 @@ def _add_frame(material, group) -> tuple:
 
 
 def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRAL_LIGHTS,
-                measure: bool = False) -> dict:
+                measure: bool = False, shadows: bool = True) -> dict:
     """Add the EEVEE reconstruction to ``material``; returns node and sampler counts.
 
     ``lights``: at most how many lights are evaluated spectrally (:func:`spectral_lights`,
     the key light ``light_object`` or the brightest first); fewer where the node group
     would not fit EEVEE's node constants (``counts["lights_left_to_rgb"]`` names them).
-    They cast no shadow on the material; the others keep EEVEE's shadows. ``measure``
+    ``shadows``: their radiance on the material keeps EEVEE's own shadows, read through
+    twin lights (:mod:`.shadow_twins`, :mod:`.shadow_nodes`; Blender 5.0 and later,
+    ``counts["shadows"]`` says whether it did); without, they cast none on it. The other
+    lights keep EEVEE's shadows. ``measure``
     also computes the key-light term's ΔE94 against the 5 nm reference
     (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
     """
     if material.spectral.result.image is None:
         raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
     model = storage.load_factored(material)
+    shadows = bool(shadows) and shadow_nodes.probes_supported()
     irradiances = _irradiances(scene, material)
     chosen = spectral_lights(scene, material, lights, light_object, irradiances)
     spectral = {obj.name: light for obj, light, _ in irradiances}
@@ -190,16 +195,20 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
     image.alpha_mode = "CHANNEL_PACKED"        # the 4th term must not divide the other 3
     build = _Build(material, model, image, spectral, irradiances, to_rgb,
                    use_uv=any(o.type == "MESH" and o.data.uv_layers.active is not None
-                              for o in objects))
+                              for o in objects), shadows=shadows)
     group, fill, fit, used = build.fitting(chosen)
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group.name = eevee_nodes.group_name(material)
     output, original = _add_frame(material, group)
+    thickness = _thin_probes(material, output) if shadows else None
     previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in used}
+    for obj in used if shadows else ():
+        shadow_twins.ensure_twins(obj, objects)
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
     counts["lights"] = [obj.name for obj in used]
     counts["lights_left_to_rgb"] = [obj.name for obj in chosen[len(used):]]
+    counts["shadows"] = shadows
     counts["fit"] = {"base_color": [float(v) for v in fit["base_color"]],
                      "roughness": fit["roughness"], "specular": fit["specular"],
                      "relative_rms": fit["relative_rms"],
@@ -210,7 +219,7 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
         counts["de94"] = prefilter.key_light_error(brdf, model, light, to_rgb)
     material[ORIGINAL_KEY] = json.dumps({
         "output": output.name, "link": original, "light": used[0].name,
-        "receivers": previous_receivers,
+        "receivers": previous_receivers, "shadows": bool(shadows), "thickness": thickness,
         "working_space": working_space(), **counts})
     material.update_tag()
     return counts
@@ -220,10 +229,10 @@ class _Build:
     """The node group of one application, for a given set of spectral lights."""
 
     def __init__(self, material, model, image, spectral: dict, irradiances: list,
-                 to_rgb: np.ndarray, use_uv: bool):
+                 to_rgb: np.ndarray, use_uv: bool, shadows: bool):
         self.material, self.model, self.image = material, model, image
         self.spectral, self.irradiances, self.to_rgb = spectral, irradiances, to_rgb
-        self.use_uv = use_uv
+        self.use_uv, self.shadows = use_uv, shadows
 
     def group(self, chosen: list) -> tuple:
         """(group under a scratch name, fill light, Principled fit) for ``chosen``."""
@@ -241,7 +250,7 @@ class _Build:
             for obj in chosen]
         # Built under a scratch name and checked before anything of the material changes.
         group = eevee_nodes.build_group(self.material, self.model, self.image, keys, fit,
-                                        use_uv_tangent=self.use_uv,
+                                        use_uv_tangent=self.use_uv, shadows=self.shadows,
                                         name=eevee_nodes.group_name(self.material)
                                         + " (building)")
         return group, fill, fit
@@ -273,7 +282,8 @@ def refresh(material, scene) -> str:
     light = bpy.data.objects.get(record.get("light", ""))
     try:
         apply_eevee(material, scene, light_object=light,
-                    lights=scene.spectral.eevee_spectral_lights, measure="de94" in record)
+                    lights=scene.spectral.eevee_spectral_lights, measure="de94" in record,
+                    shadows=scene.spectral.eevee_spectral_shadows)
     except ValueError as exc:
         remove_eevee(material, scene)
         return f"EEVEE path of '{material.name}' removed: {exc}"
@@ -333,15 +343,15 @@ def remove_eevee(material, scene=None) -> bool:
     if record is not None:
         info = json.loads(record)
         output = tree.nodes.get(info["output"]) if tree is not None else None
-        link = info.get("link")
-        if output is not None and link is not None and link["node"] in tree.nodes:
-            source = tree.nodes[link["node"]]
-            socket = next(s for s in source.outputs if s.identifier == link["socket"])
-            tree.links.new(socket, output.inputs["Surface"])
+        for socket_name, key in (("Surface", "link"), ("Thickness", "thickness")):
+            _relink(tree, output, socket_name, info.get(key))
         for name in _record_lights(info):
             light = bpy.data.objects.get(name)
             if light is not None:
                 _include_again(light, material)
+                if info.get("shadows"):
+                    shadow_twins.release_twins(light, _objects_needing(light, material,
+                                                                       "shadows"))
         del material[ORIGINAL_KEY]
         removed = True
     group = bpy.data.node_groups.get(eevee_nodes.group_name(material))
@@ -349,6 +359,47 @@ def remove_eevee(material, scene=None) -> bool:
         bpy.data.node_groups.remove(group)
     material.update_tag()
     return removed
+
+
+def _relink(tree, output, socket_name: str, link: dict | None) -> None:
+    """Link the output's ``socket_name`` back to the node socket a record names."""
+    if output is None or not link or link["node"] not in tree.nodes:
+        return
+    source = tree.nodes[link["node"]]
+    socket = next(s for s in source.outputs if s.identifier == link["socket"])
+    tree.links.new(socket, output.inputs[socket_name])
+
+
+def _thin_probes(material, output) -> dict | None:
+    """The output's thickness 0, so that the shadow probes are thin sheets
+    (:mod:`.shadow_nodes`; it changes nothing the frame's opaque Principled BSDF shades).
+    Returns the thickness's previous link, to restore on removal."""
+    socket = output.inputs["Thickness"]
+    previous = None
+    if socket.is_linked:
+        link = socket.links[0]
+        previous = {"node": link.from_node.name, "socket": link.from_socket.identifier}
+    tree = material.node_tree
+    zero = tree.nodes.new("ShaderNodeValue")
+    zero.name = zero.label = f"{FRAME_NAME} thin shadow probes"
+    zero.outputs[0].default_value = 0.0
+    zero.parent = tree.nodes[FRAME_NAME]
+    zero.location = (output.location.x - 220, output.location.y - 600)
+    tree.links.new(zero.outputs[0], socket)
+    return previous
+
+
+def _objects_needing(light, material, flag: str | None = None) -> set[str]:
+    """Objects of the other applied materials (with ``flag`` in their record) whose
+    spectral lights include ``light``."""
+    needed = set()
+    for other in bpy.data.materials:
+        record = applied(other) if other != material else None
+        if record is not None and light.name in _record_lights(record) and \
+                (flag is None or record.get(flag)):
+            needed |= {o.name for o in bpy.data.objects
+                       if any(s.material == other for s in o.material_slots)}
+    return needed
 
 
 def _record_lights(record: dict) -> list[str]:
@@ -369,12 +420,7 @@ def _include_again(light, material) -> None:
     collection = bpy.data.collections.get(EXCLUSION_PREFIX + light.name)
     if collection is None:
         return
-    still_needed = set()
-    for other in bpy.data.materials:
-        record = applied(other) if other != material else None
-        if record is not None and light.name in _record_lights(record):
-            still_needed |= {o.name for o in bpy.data.objects
-                             if any(s.material == other for s in o.material_slots)}
+    still_needed = _objects_needing(light, material)
     for obj in list(collection.objects):
         uses = any(s.material == material for s in obj.material_slots)
         if uses and obj.name not in still_needed:

@@ -85,8 +85,8 @@ def shading_frame(g, use_uv_tangent: bool):
 
 
 def light_incidence(g, key: KeyLight, frame, label: str):
-    """(wi, wo, irradiance, lit) of one spectral light, its position or direction and
-    strength driven from the light object."""
+    """(wi, wo, irradiance, lit, wi in world space) of one spectral light, its position
+    or direction and strength driven from the light object."""
     geometry, t, b, n = frame
     g.begin(label)
     vector, strength = _key_light_drivers(g, key, 0)
@@ -112,4 +112,4 @@ def light_incidence(g, key: KeyLight, frame, label: str):
                                     column=11),
                  g.math("GREATER_THAN", g.separate(wo, column=10)[2], 0.0, column=11),
                  column=12, label="lit")
-    return wi, wo, irradiance, lit
+    return wi, wo, irradiance, lit, wi_world

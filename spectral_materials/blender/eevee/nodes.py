@@ -41,6 +41,7 @@ from ...core.brdf.axes import holds_horizon
 from ...core.brdf.factored import FactoredBRDF
 from .cell_nodes import cell_centre_pair
 from .light_nodes import KeyLight, light_incidence, shading_frame
+from .shadow_nodes import light_visibility
 from .lobe_nodes import lobe_rgb
 
 GROUP_PREFIX = "SM EEVEE "
@@ -312,12 +313,14 @@ def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
 
 
 def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fit: dict, *,
-                use_uv_tangent: bool = False, name: str | None = None):
+                use_uv_tangent: bool = False, name: str | None = None, shadows: bool = False):
     """(Re)write the node group ``name`` (default: the material's); returns it.
 
     ``lights``: the spectral lights, the key light first; each gets its own incidence,
     lookups, packs and lobe frames, summed into the ``Spectral lights`` output. ``fit``
-    (``core.prefilter.fit_principled``) feeds the Principled outputs. Raises ValueError
+    (``core.prefilter.fit_principled``) feeds the Principled outputs. ``shadows``: each
+    light's radiance times its EEVEE shadow, read through its twin lights
+    (:mod:`.shadow_nodes`; the caller makes the twins). Raises ValueError
     for what the EEVEE path cannot reconstruct.
     """
     parameterization = model.grid.parameterization.name
@@ -339,7 +342,7 @@ def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fi
     total = None
     for index, light in enumerate(lights):
         label = "key light" if index == 0 else f"light {index + 1}"
-        radiance = _light_radiance(g, model, image, light, frame, label, base)
+        radiance = _light_radiance(g, model, image, light, frame, label, base, shadows)
         total = radiance if total is None else g.vmath("ADD", total, radiance,
                                                        column=base + 34, label="Σ lights")
     g.begin("Other lights: Lambert + GGX fitted under their spectrum")
@@ -350,11 +353,12 @@ def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fi
 
 
 def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, label: str,
-                    base: int):
+                    base: int, shadowed: bool):
     """One spectral light's reflected radiance (scene-linear RGB), its frames labelled
-    ``label``: incidence, coordinates, axis lookups, packs and the lobe."""
+    ``label``: incidence, coordinates, axis lookups, packs and the lobe; ``shadowed``:
+    times its visibility through its twin lights (:mod:`.shadow_nodes`)."""
     parameterization = model.grid.parameterization.name
-    wi, wo, irradiance, lit = light_incidence(g, key, frame, f"{label}: incidence")
+    wi, wo, irradiance, lit, wi_world = light_incidence(g, key, frame, f"{label}: incidence")
     ratio = None
     if model.cells is not None:
         g.begin(f"{label}: the centre of the measured cell")
@@ -389,6 +393,11 @@ def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, 
         radiance = g.vmath("ADD", radiance, g.vmath("SCALE", lobe, scale=lit_scale,
                                                     column=base + 11),
                            column=base + 11, label=f"{label} with lobe")
+    if shadowed:
+        visibility = light_visibility(g, wi_world, frame[0].outputs["Incoming"], base + 12,
+                                      label)
+        radiance = g.vmath("SCALE", radiance, scale=visibility, column=base + 22,
+                           label=f"{label}, shadowed")
     return radiance
 
 

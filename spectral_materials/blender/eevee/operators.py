@@ -26,8 +26,10 @@ class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
     def execute(self, context):
         material = active_material(context)
         try:
+            settings = context.scene.spectral
             counts = eevee.apply_eevee(material, context.scene, measure=True,
-                                       lights=context.scene.spectral.eevee_spectral_lights)
+                                       lights=settings.eevee_spectral_lights,
+                                       shadows=settings.eevee_spectral_shadows)
         except EXPECTED_ERRORS as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -38,7 +40,11 @@ class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
                               f"{counts['images']} texture(s); key light ΔE94 mean "
                               f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm"
                               + (f"; {', '.join(rgb)} left to RGB: the nodes would exceed "
-                                 "EEVEE's limit" if rgb else ""))
+                                 "EEVEE's limit" if rgb else "")
+                              + ("; the spectral lights cast no shadow on it (their EEVEE "
+                                 "shadows need Blender 5.0 or later)"
+                                 if settings.eevee_spectral_shadows and not counts["shadows"]
+                                 else ""))
         return {"FINISHED"}
 
 

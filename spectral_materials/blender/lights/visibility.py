@@ -7,6 +7,9 @@ lights with power.
 
 from __future__ import annotations
 
+#: ID property marking the EEVEE path's shadow twins (``blender/eevee/shadow_twins.py``):
+#: helper lights that no spectral path draws or counts.
+SHADOW_TWIN_KEY = "sm_shadow_twin"
 GEOMETRY_TYPES = {"MESH", "CURVE", "CURVES", "SURFACE", "META", "FONT", "POINTCLOUD", "VOLUME"}
 
 
@@ -24,6 +27,8 @@ def scene_lights(scene, view_layer=None) -> tuple[list, list[str]]:
     view_layer = view_layer or scene.view_layers[0]
     reaching, left_out = [], []
     for obj in sorted((o for o in scene.objects if o.type == "LIGHT"), key=lambda o: o.name):
+        if obj.get(SHADOW_TWIN_KEY):
+            continue
         if not renders(obj, view_layer):
             left_out.append(f"{obj.name} (hidden)")
         elif obj.data.energy <= 0 or obj.data.spectral.power <= 0:
