@@ -24,8 +24,7 @@ from ...core.colour import pipeline as colour_pipeline
 from .. import compat
 from ..brdf import sources, storage
 from ..lights import scene_lights
-from . import nodes as eevee_nodes
-from . import shadow_nodes, shadow_twins
+from . import nodes as eevee_nodes, shadow_nodes, shadow_twins
 
 # Served from here for one release: they moved to .render with the rendering helpers.
 __getattr__ = forward_names(__name__, dict.fromkeys(

@@ -41,8 +41,8 @@ from ...core.brdf.axes import holds_horizon
 from ...core.brdf.factored import FactoredBRDF
 from .cell_nodes import cell_centre_pair
 from .light_nodes import KeyLight, light_incidence, shading_frame
-from .shadow_nodes import light_visibility
 from .lobe_nodes import lobe_rgb
+from .shadow_nodes import light_visibility
 
 GROUP_PREFIX = "SM EEVEE "
 #: Spectral lights a group evaluates at most: each adds its own chain of nodes (and node
