@@ -203,9 +203,11 @@ class Bench:
                 "later_seconds": later, "later_median": float(np.median(later)),
                 "image": image}
 
-    def measure(self, layout: str, packs: int, *, timed: bool = True, lights: int = 1) -> dict:
-        """One layout and pack count with ``lights`` spectral lights; ``timed=False``: the
-        first render only (a probe)."""
+    def measure(self, layout: str, packs: int, *, timed: bool = True, lights: int = 1,
+                shadows: bool = True) -> dict:
+        """One layout and pack count with ``lights`` spectral lights, their EEVEE shadows
+        read through twin lights or not (``shadows``; the add-on's default is on);
+        ``timed=False``: the first render only (a probe)."""
         model = synthetic_model(layout, packs)
         material = bpy.data.materials.new(f"Bench {layout} {packs}")
         material.spectral.enabled = True
@@ -214,6 +216,7 @@ class Bench:
                "compiled": False, "status": "not rendered", "first_seconds": None,
                "error_lines": [], "exception": None, "load": harness.load_average(),
                "spectral_lights": lights, "scene_lights": len(self.scene_lights())}
+        row["shadows"] = shadows
         try:
             start = time.perf_counter()
             storage.store_factored(material, model)
@@ -225,7 +228,8 @@ class Bench:
                 light.light_linking.receiver_collection = None
             start = time.perf_counter()
             counts = eevee.apply_eevee(material, self.scene, light_object=self.sun,
-                                       lights=lights)
+                                       lights=lights, shadows=shadows)
+            row["shadows"] = counts["shadows"]
             row["apply_seconds"] = time.perf_counter() - start
             row.update({k: counts[k] for k in ("nodes", "image_nodes", "images")})
             self.receivers = {light: light.light_linking.receiver_collection

@@ -188,7 +188,8 @@ def _method(results: dict) -> list[str]:
         f"{BASIS_SIZE}, packs of {PACK_SIZE} terms, stored with `storage.store_factored` "
         "and given the node group by `eevee.apply_eevee(material, scene, light_object=sun)` "
         "(which excludes the sphere from the sun by light linking: the group carries the "
-        "sun's light).",
+        "sun's light; and, the add-on's default, reads the sun's EEVEE shadow through its "
+        "twin lights, a refraction probe and Shader to RGB: docs/eevee.md).",
         "",
         *_columns(results),
     ]

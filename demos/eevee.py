@@ -42,13 +42,16 @@ def render_eevee(scene, width: int, height: int) -> tuple[np.ndarray, float]:
     return xyz / scene_lights.display_settings(scene).exposure, seconds
 
 
-def _measure(scene, comparison, lights: int) -> tuple[dict, np.ndarray, dict]:
-    """Apply the EEVEE path with ``lights`` spectral lights to every drawn material,
-    render, compare: (rows per material, XYZ, ΔE94 maps and timings)."""
+def _measure(scene, comparison, lights: int, shadows: bool = False
+             ) -> tuple[dict, np.ndarray, dict]:
+    """Apply the EEVEE path with ``lights`` spectral lights (their EEVEE shadows or none)
+    to every drawn material, render, compare: (rows per material, XYZ, ΔE94 maps and
+    timings)."""
     applied = {}
     for name in comparison.materials:
         material = bpy.data.materials[name]
-        counts = eevee.apply_eevee(material, scene, measure=True, lights=lights)
+        counts = eevee.apply_eevee(material, scene, measure=True, lights=lights,
+                                   shadows=shadows)
         applied[name] = {**counts, "key_light": eevee.applied(material)["light"]}
     height, width = comparison.material_map.shape
     render_eevee(scene, width, height)                    # compiles the materials
@@ -97,6 +100,7 @@ def eevee_section(scene, comparison, images: Path) -> dict:
         rows, xyz, maps = _measure(scene, comparison, lights)
         settings[lights] = {"materials": rows, "render_seconds": maps["render_seconds"]}
     de_reference, de_handler = maps["de_reference"], maps["de_handler"]
+    shadowed = _shadowed(scene, comparison, every, xyz, images)
     height, width = comparison.material_map.shape
     covered = comparison.material_map >= 0
     display = scene_lights.display_settings(scene)
@@ -124,8 +128,42 @@ def eevee_section(scene, comparison, images: Path) -> dict:
     fig.savefig(images / "eevee_scene.png", dpi=80, bbox_inches="tight")
     plt.close(fig)
     return {"settings": {str(k): v for k, v in settings.items()}, "every": every,
+            "shadows": shadowed,
             "size": [width, height], "working_space": bpy.data.colorspace.working_space,
             "handler_ms": _handler_ms(scene, width, height)}
+
+
+def _shadowed(scene, comparison, lights: int, unshadowed: np.ndarray, images: Path) -> dict:
+    """The add-on's default, the spectral lights' EEVEE shadows on (Blender 5.0+): render
+    again, count the material pixels a spectral light's shadow darkens (Y below 99 % of
+    the render without), measure the others against 5 nm; the figure of both renders."""
+    import matplotlib.pyplot as plt
+
+    rows, xyz, maps = _measure(scene, comparison, lights, shadows=True)
+    covered = comparison.material_map >= 0
+    darker = covered & (xyz[..., 1] < 0.99 * unshadowed[..., 1])
+    clear = covered & ~darker
+    de = maps["de_reference"]
+    display = scene_lights.display_settings(scene)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.2))
+    for ax, image, title in ((axes[0], unshadowed, "spectral lights unshadowed"),
+                             (axes[1], xyz, "with their EEVEE shadows (default)")):
+        rgb = colour_pipeline.xyz_to_display(image, np.asarray(display.scene_white),
+                                             exposure=display.exposure,
+                                             tonemap_white=display.tone_white or 4.0)
+        rgb[~covered] = 0.15
+        ax.imshow(np.clip(rgb[::-1], 0, 1))
+        ax.set_title(title, fontsize=9)
+        ax.axis("off")
+    fig.savefig(images / "eevee_shadows.png", dpi=80, bbox_inches="tight")
+    plt.close(fig)
+    applied = next(iter(rows.values()))
+    return {"on": bool(eevee.applied(bpy.data.materials[comparison.materials[0]])
+                       .get("shadows")),
+            "lights": applied["spectral_lights"], "render_seconds": maps["render_seconds"],
+            "shadowed_fraction": float(darker.sum() / max(covered.sum(), 1)),
+            "clear_mean": float(np.nanmean(de[clear])) if clear.any() else None,
+            "clear_p95": float(np.nanpercentile(de[clear], 95)) if clear.any() else None}
 
 
 def _handler_ms(scene, width: int, height: int, repeats: int = 3) -> float:
@@ -146,8 +184,9 @@ def report_lines(section: dict) -> list[str]:
              "irradiance to the material's objects) alone reconstructed spectrally from the "
              "factor packs in nodes (*Spectral lights* 1), and with every light of the scene "
              f"so reconstructed ({every} here), the add-on's default (*Spectral lights* up to "
-             f"{eevee.MAX_SPECTRAL_LIGHTS}). Spectral lights are shown through an "
-             "Emission and cast no shadow on the material; the other lights and the world "
+             f"{eevee.MAX_SPECTRAL_LIGHTS}), both with the spectral lights unshadowed, as the "
+             "reference and the draw handler draw them (each spectral light reaches the "
+             "material through an Emission); the other lights and the world "
              "reach a Principled BSDF fitted to the factors (Lambert + GGX) under the other "
              "lights' spectrum. "
              f"Rendered by EEVEE at {section['size'][0]}×{section['size'][1]} (1 sample, pixel "
@@ -172,7 +211,22 @@ def report_lines(section: dict) -> list[str]:
               f"{section['handler_ms']:.0f} ms (with read-back). With the key light alone, "
               "the difference between EEVEE and the handler is the other light, which EEVEE "
               "shades in RGB through the fitted Principled BSDF (see docs/eevee.md).", ""]
-    return lines
+    return lines + _shadow_lines(section.get("shadows"))
+
+
+def _shadow_lines(shadows: dict | None) -> list[str]:
+    if not shadows or not shadows["on"]:
+        return ["The spectral lights' EEVEE shadows (*Shadows of spectral lights*) need "
+                "Blender 5.0 or later; this run's Blender has none.", ""]
+    return ["With the add-on's default, the spectral lights' own EEVEE shadows "
+            "(docs/eevee.md: twin lights read through a refraction probe), the same "
+            f"render took {shadows['render_seconds']:.2f} s. The spectral lights' shadows "
+            f"darken {100 * shadows['shadowed_fraction']:.1f} % of the materials' pixels "
+            "(Y below 99 % of the unshadowed render), which the unshadowed reference cannot "
+            "match; over the other pixels EEVEE against 5 nm is mean "
+            f"{shadows['clear_mean']:.3f}, p95 {shadows['clear_p95']:.3f}.", "",
+            "![EEVEE without and with the spectral lights' shadows]"
+            "(images/eevee_shadows.png)", ""]
 
 
 SPHERE_CASES = (("D65", 0.0), ("D65", 60.0), ("FL2", 30.0), ("FL11", 80.0))

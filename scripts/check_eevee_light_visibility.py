@@ -1,15 +1,19 @@
 #!/usr/bin/env python3
 """Whether an EEVEE node tree can see one light's shadow apart from the others'.
 
-The EEVEE path's spectral lights cast no shadow on their material (docs/eevee.md): their
-radiance is an Emission. To keep EEVEE's own shadow for such a light, a node tree would
-need that light's visibility alone, and the one handle EEVEE gives per light and closure
-is the light's diffuse, specular, transmission and volume factors. This script asks
-whether any closure that an opaque Principled BSDF does not use is lit by a *probe* light
+The EEVEE path's spectral lights reach their material as an Emission, which EEVEE does
+not shadow (docs/eevee.md). To keep EEVEE's own shadow for such a light, a node tree
+needs that light's visibility alone, and the one handle EEVEE gives per light and
+closure is the light's diffuse, specular, transmission and volume factors. This script
+asks which closure that an opaque Principled BSDF does not use is lit by a *probe* light
 that lights nothing else: a light-linked twin of strength 1000, red, with its diffuse,
 specular and volume factors 0 and transmission 1, beside an ordinary white sun. A plane
 with one closure through Shader to RGB is rendered at 64²; the table gives the red and
 green of a pixel outside any shadow. Where red is green, the probe reached nothing.
+
+The Refraction BSDF rows are the probe ``blender/eevee/shadow_nodes.py`` builds on: IOR
+1.5, roughness 0.5, its normal −N (the probe's lobe then faces the lights above the
+plane); "thin" sets the material output's thickness to 0.
 
 Run with a ``bpy`` Python (``VK_ICD_FILENAMES=/nonexistent.json`` for OpenGL)::
 
@@ -26,13 +30,18 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-#: (label, closure node, sign of its normal, the probe's diffuse factor).
+#: (label, closure node, sign of its normal (−2: the shadow path's probe, −3: the same,
+#: thin), the probe light's diffuse factor).
 CLOSURES = (("Diffuse BSDF", "ShaderNodeBsdfDiffuse", +1, 0.0),
             ("Diffuse BSDF, probe's diffuse factor 1", "ShaderNodeBsdfDiffuse", +1, 1.0),
             ("Translucent BSDF, normal −N", "ShaderNodeBsdfTranslucent", -1, 0.0),
             ("Translucent BSDF, normal +N", "ShaderNodeBsdfTranslucent", +1, 0.0),
             ("Translucent BSDF, probe's diffuse factor 1", "ShaderNodeBsdfTranslucent", -1, 1.0),
-            ("Refraction BSDF (IOR 1, roughness 1)", "ShaderNodeBsdfRefraction", +1, 0.0))
+            ("Refraction BSDF (IOR 1, roughness 1)", "ShaderNodeBsdfRefraction", +1, 0.0),
+            ("Refraction BSDF (IOR 1.5, roughness 0.5), normal −N", "ShaderNodeBsdfRefraction",
+             -2, 0.0),
+            ("Refraction BSDF (IOR 1.5, roughness 0.5), normal −N, thin",
+             "ShaderNodeBsdfRefraction", -3, 0.0))
 
 
 def _probe_material(bpy, kind: str, sign: int):
@@ -44,12 +53,12 @@ def _probe_material(bpy, kind: str, sign: int):
     tree.nodes.clear()
     closure = tree.nodes.new(kind)
     if kind == "ShaderNodeBsdfRefraction":
-        closure.inputs["IOR"].default_value = 1.0
-        closure.inputs["Roughness"].default_value = 1.0
+        closure.inputs["IOR"].default_value = 1.0 if abs(sign) == 1 else 1.5
+        closure.inputs["Roughness"].default_value = 1.0 if abs(sign) == 1 else 0.5
     if kind != "ShaderNodeBsdfDiffuse":
         normal = tree.nodes.new("ShaderNodeVectorMath")
         normal.operation = "SCALE"
-        normal.inputs["Scale"].default_value = float(sign)
+        normal.inputs["Scale"].default_value = 1.0 if sign > 0 else -1.0
         tree.links.new(tree.nodes.new("ShaderNodeNewGeometry").outputs["Normal"],
                        normal.inputs[0])
         tree.links.new(normal.outputs[0], closure.inputs["Normal"])
@@ -59,6 +68,10 @@ def _probe_material(bpy, kind: str, sign: int):
     tree.links.new(closure.outputs[0], to_rgb.inputs[0])
     tree.links.new(to_rgb.outputs[0], emission.inputs[0])
     tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    if sign == -3:
+        thickness = tree.nodes.new("ShaderNodeValue")
+        thickness.outputs[0].default_value = 0.0
+        tree.links.new(thickness.outputs[0], output.inputs["Thickness"])
     return material
 
 

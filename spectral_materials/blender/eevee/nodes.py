@@ -25,8 +25,9 @@ Outputs: ``Spectral lights`` (the sum of those radiances, for an Emission shader
 ``Base Color``, ``Roughness``, ``IOR`` (a Lambert + GGX fit of the factors under the
 other lights' irradiance-weighted spectrum, ``core.prefilter.fit_principled``, for a
 Principled BSDF that the other lights and the world light). EEVEE gives nodes no
-per-light data, so each spectral light has its own driven chain of nodes, and is
-unshadowed (an emission casts no shadow); the apply step keeps the spectral lights from
+per-light data, so each spectral light has its own driven chain of nodes; an emission
+casts no shadow, so each light's radiance is multiplied by its visibility read through
+its twin lights (:mod:`.shadow_nodes`). The apply step keeps the spectral lights from
 also lighting the Principled BSDF.
 """
 

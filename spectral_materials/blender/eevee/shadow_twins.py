@@ -32,6 +32,7 @@ RECEIVERS_PREFIX = "SM shadow receivers of "
 ROLES = (("shadowed", (1.0, 0.0, 0.0), True), ("unshadowed", (0.0, 1.0, 0.0), False))
 #: Light settings a twin copies, driven where they are numbers (they move with the light).
 SHAPE_SETTINGS = ("shadow_soft_size", "angle", "spot_size", "spot_blend", "size", "size_y",
+                  "spread",
                   "shadow_jitter_overblur", "shadow_filter_radius",
                   "shadow_maximum_resolution", "shadow_resolution_limit")
 FLAG_SETTINGS = ("shape", "use_soft_falloff", "use_shadow_jitter", "use_square")
@@ -60,7 +61,8 @@ def ensure_twins(light_object, objects) -> list:
         data.color = colour
         data.diffuse_factor = data.specular_factor = data.volume_factor = 0.0
         data.transmission_factor = 1.0
-        data.use_shadow = shadow
+        # A light the user keeps from casting shadows keeps its spectral term unshadowed.
+        data.use_shadow = shadow and light_object.data.use_shadow
         twin.light_linking.receiver_collection = receivers
         twins.append(twin)
     return twins

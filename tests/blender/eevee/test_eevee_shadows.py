@@ -232,3 +232,26 @@ def test_soft_shadow_edges_are_eevees_own(clean_scene, model):
     assert penumbra.sum() >= 10, penumbra.sum()
     assert np.abs(ours - eevees)[keep].mean() <= 0.02
     assert np.abs(ours - eevees)[penumbra].mean() <= 0.1, np.abs(ours - eevees)[penumbra]
+
+
+@needs_probes
+def test_twins_are_shared_until_the_last_material_lets_go(clean_scene, model):
+    scene, first, lights = _scene(model, [(35.0, 200.0, "D65")], [])
+    mesh = bpy.data.meshes.new("second")
+    mesh.from_pydata([(2, -1, 0), (4, -1, 0), (4, 1, 0), (2, 1, 0)], [], [(0, 1, 2, 3)])
+    second = bpy.data.materials.new("second")
+    second.spectral.enabled = True
+    mesh.materials.append(second)
+    storage.store_factored(second, model)
+    scene.collection.objects.link(bpy.data.objects.new("second plane", mesh))
+    for material in (first, second):
+        eevee.apply_eevee(material, scene, light_object=lights[0], lights=1)
+    receivers = shadow_twins.twins_of(lights[0])[0].light_linking.receiver_collection
+    assert sorted(o.name for o in receivers.objects) == ["plane", "second plane"]
+    eevee.remove_eevee(first, scene)
+    twins = shadow_twins.twins_of(lights[0])
+    assert len(twins) == 2
+    assert [o.name for o in twins[0].light_linking.receiver_collection.objects] == \
+        ["second plane"]
+    eevee.remove_eevee(second, scene)
+    assert not shadow_twins.twins_of(lights[0])
