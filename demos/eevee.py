@@ -108,12 +108,7 @@ def eevee_section(scene, comparison, images: Path) -> dict:
     for ax, image, title in ((axes[0, 0], comparison.reference, "5 nm reference"),
                              (axes[0, 1], comparison.gpu, "draw handler (GLSL)"),
                              (axes[0, 2], xyz, "EEVEE (node groups)")):
-        rgb = colour_pipeline.xyz_to_display(image, np.asarray(display.scene_white),
-                                             exposure=display.exposure,
-                                             tonemap_white=display.tone_white or 4.0)
-        rgb[~covered] = 0.15
-        ax.imshow(np.clip(rgb[::-1], 0, 1))
-        ax.set_title(title, fontsize=9)
+        _show(ax, image, covered, display, title)
     for ax, de, title in ((axes[1, 1], comparison.delta_e94(scene), "ΔE94 handler vs 5 nm"),
                           (axes[1, 2], de_reference, "ΔE94 EEVEE vs 5 nm")):
         shown = ax.imshow(de[::-1], cmap="magma", vmin=0.0, vmax=5.0)
@@ -133,6 +128,16 @@ def eevee_section(scene, comparison, images: Path) -> dict:
             "handler_ms": _handler_ms(scene, width, height)}
 
 
+def _show(ax, image: np.ndarray, covered: np.ndarray, display, title: str) -> None:
+    """An XYZ render shown as the display shows it, the background grey."""
+    rgb = colour_pipeline.xyz_to_display(image, np.asarray(display.scene_white),
+                                         exposure=display.exposure,
+                                         tonemap_white=display.tone_white or 4.0)
+    rgb[~covered] = 0.15
+    ax.imshow(np.clip(rgb[::-1], 0, 1))
+    ax.set_title(title, fontsize=9)
+
+
 def _shadowed(scene, comparison, lights: int, unshadowed: np.ndarray, images: Path) -> dict:
     """The add-on's default, the spectral lights' EEVEE shadows on (Blender 5.0+): render
     again, count the material pixels a spectral light's shadow darkens (Y below 99 % of
@@ -148,12 +153,7 @@ def _shadowed(scene, comparison, lights: int, unshadowed: np.ndarray, images: Pa
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.2))
     for ax, image, title in ((axes[0], unshadowed, "spectral lights unshadowed"),
                              (axes[1], xyz, "with their EEVEE shadows (default)")):
-        rgb = colour_pipeline.xyz_to_display(image, np.asarray(display.scene_white),
-                                             exposure=display.exposure,
-                                             tonemap_white=display.tone_white or 4.0)
-        rgb[~covered] = 0.15
-        ax.imshow(np.clip(rgb[::-1], 0, 1))
-        ax.set_title(title, fontsize=9)
+        _show(ax, image, covered, display, title)
         ax.axis("off")
     fig.savefig(images / "eevee_shadows.png", dpi=80, bbox_inches="tight")
     plt.close(fig)
