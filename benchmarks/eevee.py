@@ -60,6 +60,7 @@ from spectral_materials.blender import compat
 from spectral_materials.blender.brdf import storage
 from spectral_materials.blender.eevee import apply as eevee, render as eevee_render
 from spectral_materials.blender.gpu.context import ensure_gpu
+from spectral_materials.blender.lights.visibility import SHADOW_TWIN_KEY
 from spectral_materials.blender.viewport import draw
 
 from . import eevee_lights, harness
@@ -167,15 +168,22 @@ class Bench:
 
     def use(self, material) -> None:
         """Put ``material`` on the sphere. The Principled baseline is lit by every light
-        like any material; the spectral one is excluded from its spectral lights
-        (``apply_eevee``'s light linking: the node group carries them)."""
+        like any material, and renders without the spectral lights' shadow twins (their
+        shadow maps are the spectral material's cost); the spectral one is excluded from
+        its spectral lights (``apply_eevee``'s light linking: the node group carries
+        them)."""
         self.sphere.material_slots[0].material = material
+        baseline = material == self.principled
         for light, collection in self.receivers.items():
-            light.light_linking.receiver_collection = \
-                None if material == self.principled else collection
+            light.light_linking.receiver_collection = None if baseline else collection
+        for twin in self.scene.objects:
+            if twin.get(SHADOW_TWIN_KEY):
+                twin.hide_render = baseline
 
     def scene_lights(self) -> list:
-        return [o for o in self.scene.objects if o.type == "LIGHT"]
+        """The scene's lights, the shadow twins left out."""
+        return [o for o in self.scene.objects
+                if o.type == "LIGHT" and not o.get(SHADOW_TWIN_KEY)]
 
     def render(self, material, samples: int = SAMPLES) -> float:
         self.use(material)

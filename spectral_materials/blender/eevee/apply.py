@@ -201,8 +201,6 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
     output, original = _add_frame(material, group)
     thickness = _thin_probes(material, output) if shadows else None
     previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in used}
-    for obj in used if shadows else ():
-        shadow_twins.ensure_twins(obj, objects)
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)
     counts["lights"] = [obj.name for obj in used]
@@ -220,6 +218,8 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
         "output": output.name, "link": original, "light": used[0].name,
         "receivers": previous_receivers, "shadows": bool(shadows), "thickness": thickness,
         "working_space": working_space(), **counts})
+    if shadows:
+        _make_twins(material, scene, used, objects)
     material.update_tag()
     return counts
 
@@ -351,6 +351,7 @@ def remove_eevee(material, scene=None) -> bool:
                 if info.get("shadows"):
                     shadow_twins.release_twins(light, _objects_needing(light, material,
                                                                        "shadows"))
+        shadow_twins.sweep_twins()
         del material[ORIGINAL_KEY]
         removed = True
     group = bpy.data.node_groups.get(eevee_nodes.group_name(material))
@@ -358,6 +359,20 @@ def remove_eevee(material, scene=None) -> bool:
         bpy.data.node_groups.remove(group)
     material.update_tag()
     return removed
+
+
+def _make_twins(material, scene, lights: list, objects: list) -> None:
+    """The spectral lights' shadow twins (:mod:`.shadow_twins`); where Blender refuses
+    one (a light in a linked library's collection), the material is restored and the
+    error names the way out."""
+    try:
+        for obj in lights:
+            shadow_twins.ensure_twins(obj, objects, scene)
+    except (RuntimeError, TypeError, ValueError) as exc:
+        remove_eevee(material, scene)
+        raise EEVEEError(f"Material '{material.name}': the shadow twins of its spectral "
+                         f"lights could not be made ({exc}); apply it with Shadows of "
+                         "spectral lights off") from exc
 
 
 def _relink(tree, output, socket_name: str, link: dict | None) -> None:

@@ -156,8 +156,8 @@ def _render_rgb(scene, size: int, samples: int) -> tuple[np.ndarray, float]:
 
 def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D65",
                         size: int = 256, *, samples: int = 1,
-                        extra_suns: tuple = (), spectral_lights: int = 1
-                        ) -> tuple[np.ndarray, dict]:
+                        extra_suns: tuple = (), spectral_lights: int = 1,
+                        shadows: bool = True) -> tuple[np.ndarray, dict]:
     """The protocol sphere rendered by EEVEE through the node group: (XYZ (size, size, 3)
     with row 0 at the bottom, protocol-normalised; facts about the render).
 
@@ -166,7 +166,9 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
     ``illuminant``, the key light; a black world) and removed afterwards; the file's
     working colour space is Rec.2020 during the render and restored after it.
     ``extra_suns``: more suns of strength 1, (incidence°, azimuth°, illuminant) each, of
-    which the node group evaluates ``spectral_lights`` − 1 spectrally.
+    which the node group evaluates ``spectral_lights`` − 1 spectrally. ``shadows``: the
+    spectral lights' EEVEE shadows (the add-on's default; on the sphere, its own shadow
+    beyond the terminator, where the lit term is 0 anyway).
     """
     from ..gpu.offscreen import check_size
 
@@ -190,7 +192,8 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
         space = PROTOCOL_WORKING_SPACE if compat.can_set_working_space() else previous_space
         if previous_space != space:
             bpy.ops.wm.set_working_color_space(working_space=space, convert_colors=False)
-        counts = apply_eevee(material, scene, light_object=sun, lights=spectral_lights)
+        counts = apply_eevee(material, scene, light_object=sun, lights=spectral_lights,
+                             shadows=shadows)
         rgb, seconds = _render_rgb(scene, size, samples)
         xyz = scene_linear_to_xyz(rgb, scene.spectral.adaptation_white, space)
         return xyz, {"seconds": seconds, "working_space": space, **counts}

@@ -5,8 +5,12 @@ light reaching a closure. The light's two twins (``shadow_twins.py``) reach only
 transmission closures, which the group's Principled BSDF does not have. So a Refraction
 BSDF *probe* read through Shader to RGB sees, in red, the shadowed twin and, in green,
 the unshadowed one, each times the same lobe response; their ratio is the light's
-visibility, soft shadow edges included. Blue, which no twin has, is what the user's own
-lights and the world add to the probe, and is taken off both.
+visibility, soft shadow edges included. Blue, which no twin has, stands for what the
+user's own lights and the world add to the probe and is taken off both: exact for grey
+light; a coloured light (each light's colour is its SPD's) leaves its colour's
+difference, which the aim keeps small: such a light reaches the probe through the lobe's
+tail, its own twins through its peak (``tests/blender/eevee/test_eevee_shadows.py``
+holds a shadow under an FL2 sun left to RGB).
 
 The probe's normal is aimed so that its (rough, narrow) lobe peaks towards the light:
 its own twins then stand far above other lights' twins, which fall in the lobe's tail.

@@ -23,6 +23,7 @@ from spectral_materials.blender.eevee.render import (
     scene_linear_to_xyz,
 )
 from spectral_materials.blender.lights import scene_lights
+from spectral_materials.blender.lights.visibility import SHADOW_TWIN_KEY
 from spectral_materials.core.brdf import factor, models, prefilter, shading
 from spectral_materials.core.colour import pipeline as colour_pipeline, spectra
 
@@ -105,6 +106,14 @@ def _plate_mask(plate, margin: float) -> np.ndarray:
     return (np.abs(xs - x) < half + margin) & (np.abs(ys - y) < half + margin)
 
 
+def _assert_no_twins() -> None:
+    """No object, light or receiver collection of a shadow twin is left, whatever its name."""
+    assert not [o.name for o in bpy.data.objects if o.get(SHADOW_TWIN_KEY)]
+    assert not [light.name for light in bpy.data.lights if light.get(SHADOW_TWIN_KEY)]
+    assert not [c.name for c in bpy.data.collections
+                if c.name.startswith(shadow_twins.RECEIVERS_PREFIX)]
+
+
 def _render_xyz(scene, samples: int = 1) -> np.ndarray:
     rgb, _ = _render_rgb(scene, SIZE, samples)
     return scene_linear_to_xyz(rgb, scene.spectral.adaptation_white)
@@ -176,7 +185,7 @@ def test_twins_follow_apply_and_remove(clean_scene, model):
     eevee.apply_eevee(material, scene, light_object=lights[0], lights=1)
     output = next(n for n in material.node_tree.nodes
                   if n.bl_idname == "ShaderNodeOutputMaterial")
-    assert output.inputs["Thickness"].is_linked == (bpy.app.version >= (5, 0, 0))
+    assert output.inputs["Thickness"].is_linked
     twins = shadow_twins.twins_of(lights[0])
     assert [t.data.color[:] for t in twins] == [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0)]
     assert [t.data.use_shadow for t in twins] == [True, False]
@@ -192,9 +201,10 @@ def test_twins_follow_apply_and_remove(clean_scene, model):
     scene.frame_set(scene.frame_current)
     assert twins[0].data.energy == pytest.approx(3.0 * shadow_twins.TWIN_GAIN)
     assert twins[1].data.energy == pytest.approx(3.0 * shadow_twins.TWIN_GAIN)
+    # Cycles ignores a light's factors: the twins keep transmission rays only.
+    assert not any(t.visible_diffuse or t.visible_glossy or t.visible_camera for t in twins)
     eevee.remove_eevee(material, scene)
-    assert not shadow_twins.twins_of(lights[0])
-    assert shadow_twins.RECEIVERS_PREFIX + "sun 0" not in bpy.data.collections
+    _assert_no_twins()
     assert not output.inputs["Thickness"].is_linked
 
 
@@ -254,4 +264,52 @@ def test_twins_are_shared_until_the_last_material_lets_go(clean_scene, model):
     assert [o.name for o in twins[0].light_linking.receiver_collection.objects] == \
         ["second plane"]
     eevee.remove_eevee(second, scene)
-    assert not shadow_twins.twins_of(lights[0])
+    _assert_no_twins()
+
+
+@needs_probes
+def test_a_point_light_keeps_its_shadow_beside_a_light_left_to_rgb(clean_scene, model):
+    """A point light (whose twins EEVEE 5.0 would drop without a reach of their own) is
+    the spectral light; an FL2 sun, coloured, is left to the RGB Principled BSDF and
+    reaches the probes too. In the point light's shadow the plane shows the sun's RGB
+    term alone; outside it, what it shows without the shadows."""
+    suns = [(50.0, 0.0, "FL2")]
+    plate = (0.2, 0.0, 0.5, 0.25)
+    scene, material, lights = _scene(model, suns, [plate])
+    point = bpy.data.objects.new("point", bpy.data.lights.new("point", "POINT"))
+    point.data.energy = 400.0
+    point.data.shadow_soft_size = 0.0
+    point.location = (-0.8, 0.0, 2.0)
+    scene.collection.objects.link(point)
+    counts = eevee.apply_eevee(material, scene, light_object=point, lights=1)
+    assert counts["lights"] == ["point"] and counts["shadows"]
+    shadowed = _render_xyz(scene)[..., 1]
+    eevee.apply_eevee(material, scene, light_object=point, lights=1, shadows=False)
+    unshadowed = _render_xyz(scene)[..., 1]
+    point.data.energy = 0.0                       # the spectral term gone: the sun alone
+    sun_alone = _render_xyz(scene)[..., 1]
+    # The plate's shadow from the point light: its corners projected from the light.
+    x, y, height, half = plate
+    scale = point.location.z / (point.location.z - height)
+    sx = point.location.x + (x - point.location.x) * scale
+    ys, xs = np.meshgrid(CENTRES, CENTRES, indexing="ij")
+    inside = (np.abs(xs - sx) < half * scale - 0.08) & (np.abs(ys - y) < half * scale - 0.08)
+    shadow = inside & ~_plate_mask(plate, 0.05)
+    outside = ~((np.abs(xs - sx) < half * scale + 0.08) & (np.abs(ys - y) < half * scale + 0.08))
+    lit = outside & ~_plate_mask(plate, 0.05) & ~_shadow_mask(plate, 50.0, 0.0, -0.08)
+    assert shadow.sum() > 20 and lit.sum() > 500
+    term = unshadowed - sun_alone
+    assert term[shadow].mean() > 0.02               # the point light does reach there
+    assert np.abs(shadowed - sun_alone)[shadow].max() <= 0.02 * term[shadow].mean()
+    assert np.abs(shadowed - unshadowed)[lit].max() <= 0.02 * term[lit].mean()
+
+
+@needs_probes
+def test_a_renamed_light_keeps_and_then_frees_its_twins(clean_scene, model):
+    scene, material, lights = _scene(model, [(35.0, 200.0, "D65")], [])
+    eevee.apply_eevee(material, scene, light_object=lights[0], lights=1)
+    lights[0].name = "key sun"
+    assert len(shadow_twins.twins_of(lights[0])) == 2
+    bpy.data.objects.remove(lights[0])            # the light deleted, its twins orphaned
+    eevee.remove_eevee(material, scene)
+    _assert_no_twins()
