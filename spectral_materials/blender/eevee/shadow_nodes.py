@@ -22,10 +22,10 @@ the probe sees nothing of the twins (a light behind the lobe, or Cycles, which h
 Shader to RGB) the light counts as visible: its radiance is unshadowed, as without the
 probe.
 
-Blender 4.5 has no such probe: a thickness of 0 gives the probe no light at all, and at
-EEVEE's own thickness the aimed probe's light is not shadowed where the surface is (its
-shadow is looked up where the refracted ray leaves the object). There the spectral
-lights stay unshadowed on the material (:func:`probes_supported`).
+Blender 4.5 has no such probe here: a thickness of 0 gives the probe no light at all,
+and in this material at EEVEE's own thickness the probe (aimed or along −N) saw its
+twin unshadowed under a plate that shadows the plane (docs/eevee.md). There the
+spectral lights stay unshadowed on the material (:func:`probes_supported`).
 """
 
 from __future__ import annotations
