@@ -20,13 +20,10 @@ draw-handler path, ``draw.render_camera(..., output="DISPLAY")`` on the same mat
 (offscreen draw and full read-back), timed after every EEVEE render. EEVEE renders with
 ``taa_render_samples = 1``. Whether a render compiled is read from Blender's console
 output during the first render (captured at the file-descriptor level) and from the
-image: EEVEE replaces a material that fails to compile by a magenta emission.
-
-The disk shader caches of the GL driver (Mesa, NVIDIA) are switched off for the run
-so that a first render compiles (``--shader-cache`` keeps them).
-
-Writes ``docs/bench_eevee.md`` and ``docs/bench_eevee.json`` (``--quick``:
-``bench_eevee_quick.*``; ``--device-out DIR`` writes to DIR instead of ``docs/``).
+image: EEVEE replaces a material that fails to compile by a magenta emission. The GL
+driver's disk shader caches are off for the run, so that a first render compiles
+(``--shader-cache`` keeps them). Writes ``docs/bench_eevee.md`` and ``.json``
+(``--quick``: ``bench_eevee_quick.*``; ``--device-out DIR``: to DIR, not ``docs/``).
 
 Usage::
 
@@ -167,11 +164,9 @@ class Bench:
         self.receivers: dict = {}
 
     def use(self, material) -> None:
-        """Put ``material`` on the sphere. The Principled baseline is lit by every light
-        like any material, and renders without the spectral lights' shadow twins (their
-        shadow maps are the spectral material's cost); the spectral one is excluded from
-        its spectral lights (``apply_eevee``'s light linking: the node group carries
-        them)."""
+        """Put ``material`` on the sphere: the Principled baseline lit by every light, its
+        render without the shadow twins (their shadow maps are the spectral material's
+        cost); the spectral one excluded from its spectral lights (``apply_eevee``)."""
         self.sphere.material_slots[0].material = material
         baseline = material == self.principled
         for light, collection in self.receivers.items():
@@ -181,9 +176,8 @@ class Bench:
                 twin.hide_render = baseline
 
     def scene_lights(self) -> list:
-        """The scene's lights, the shadow twins left out."""
-        return [o for o in self.scene.objects
-                if o.type == "LIGHT" and not o.get(SHADOW_TWIN_KEY)]
+        """The scene's lights but the shadow twins."""
+        return [o for o in self.scene.objects if o.type == "LIGHT" and not o.get(SHADOW_TWIN_KEY)]
 
     def render(self, material, samples: int = SAMPLES) -> float:
         self.use(material)
@@ -213,9 +207,8 @@ class Bench:
 
     def measure(self, layout: str, packs: int, *, timed: bool = True, lights: int = 1,
                 shadows: bool = True) -> dict:
-        """One layout and pack count with ``lights`` spectral lights, their EEVEE shadows
-        read through twin lights or not (``shadows``; the add-on's default is on);
-        ``timed=False``: the first render only (a probe)."""
+        """One layout and pack count with ``lights`` spectral lights, with their EEVEE
+        shadows or not; ``timed=False``: the first render only (a probe)."""
         model = synthetic_model(layout, packs)
         material = bpy.data.materials.new(f"Bench {layout} {packs}")
         material.spectral.enabled = True
@@ -223,8 +216,8 @@ class Bench:
                "axes": len(LAYOUTS[layout]), "packs": packs, "terms": model.terms,
                "compiled": False, "status": "not rendered", "first_seconds": None,
                "error_lines": [], "exception": None, "load": harness.load_average(),
-               "spectral_lights": lights, "scene_lights": len(self.scene_lights())}
-        row["shadows"] = shadows
+               "spectral_lights": lights, "scene_lights": len(self.scene_lights()),
+               "shadows": shadows}
         try:
             start = time.perf_counter()
             storage.store_factored(material, model)
