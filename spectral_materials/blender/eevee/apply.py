@@ -131,10 +131,7 @@ def _add_frame(material, group) -> tuple:
     if output is None:
         output = tree.nodes.new("ShaderNodeOutputMaterial")
     surface = output.inputs["Surface"]
-    original = None
-    if surface.is_linked:
-        link = surface.links[0]
-        original = {"node": link.from_node.name, "socket": link.from_socket.identifier}
+    original = _recorded_link(surface)
     frame = tree.nodes.new("NodeFrame")
     frame.name = frame.label = FRAME_NAME
     x, y = output.location.x, output.location.y - 400
@@ -375,6 +372,14 @@ def _make_twins(material, scene, lights: list, objects: list) -> None:
                          "spectral lights off") from exc
 
 
+def _recorded_link(socket) -> dict | None:
+    """The node socket linked into ``socket``, as a record names it (:func:`_relink`)."""
+    if not socket.is_linked:
+        return None
+    link = socket.links[0]
+    return {"node": link.from_node.name, "socket": link.from_socket.identifier}
+
+
 def _relink(tree, output, socket_name: str, link: dict | None) -> None:
     """Link the output's ``socket_name`` back to the node socket a record names."""
     if output is None or not link or link["node"] not in tree.nodes:
@@ -389,10 +394,7 @@ def _thin_probes(material, output) -> dict | None:
     (:mod:`.shadow_nodes`; it changes nothing the frame's opaque Principled BSDF shades).
     Returns the thickness's previous link, to restore on removal."""
     socket = output.inputs["Thickness"]
-    previous = None
-    if socket.is_linked:
-        link = socket.links[0]
-        previous = {"node": link.from_node.name, "socket": link.from_socket.identifier}
+    previous = _recorded_link(socket)
     tree = material.node_tree
     zero = tree.nodes.new("ShaderNodeValue")
     zero.name = zero.label = f"{FRAME_NAME} thin shadow probes"

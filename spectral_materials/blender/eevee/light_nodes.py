@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from .drivers import follow
+
 
 @dataclass
 class KeyLight:
@@ -32,23 +34,9 @@ def _key_light_drivers(g, key: KeyLight, column: int):
     light_object = bpy.data.objects[key.object_name]
     matrix_column = 2 if key.kind == "SUN" else 3      # +Z axis (toward the sun) / location
     for index in range(3):
-        fcurve = vector.inputs[index].driver_add("default_value")
-        driver = fcurve.driver
-        driver.type = "SUM"
-        var = driver.variables.new()
-        var.name = "v"
-        var.type = "SINGLE_PROP"
-        var.targets[0].id_type = "OBJECT"
-        var.targets[0].id = light_object
-        var.targets[0].data_path = f"matrix_world[{matrix_column}][{index}]"
-    fcurve = strength.outputs[0].driver_add("default_value")
-    fcurve.driver.type = "SUM"
-    var = fcurve.driver.variables.new()
-    var.name = "energy"
-    var.type = "SINGLE_PROP"
-    var.targets[0].id_type = "LIGHT"
-    var.targets[0].id = light_object.data
-    var.targets[0].data_path = "energy"
+        follow(vector.inputs[index], "default_value", light_object,
+               f"matrix_world[{matrix_column}][{index}]")
+    follow(strength.outputs[0], "default_value", light_object.data, "energy")
     return vector.outputs[0], strength.outputs[0]
 
 

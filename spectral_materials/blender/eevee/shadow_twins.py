@@ -31,6 +31,7 @@ import math
 import bpy
 
 from ..lights.visibility import SHADOW_TWIN_KEY
+from .drivers import follow
 
 #: Twin power over the light's.
 TWIN_GAIN = 1.0
@@ -148,12 +149,12 @@ def _copy_settings(source, data) -> None:
         if hasattr(source, name) and hasattr(data, name):
             setattr(data, name, getattr(source, name))
     data.driver_remove("energy")
-    _drive(data, "energy", source, "energy", f"v * {TWIN_GAIN!r}")
+    follow(data, "energy", source, "energy", TWIN_GAIN)
     for name in SHAPE_SETTINGS:
         if hasattr(source, name) and hasattr(data, name):
             data.driver_remove(name)
             setattr(data, name, getattr(source, name))
-            _drive(data, name, source, name, "v")
+            follow(data, name, source, name)
 
 
 def _copy_reach(source, data, scene) -> None:
@@ -171,14 +172,3 @@ def _copy_reach(source, data, scene) -> None:
     data.use_custom_distance = True
     data.cutoff_distance = max(reach, 1e-3)
 
-
-def _drive(data, name: str, source, source_name: str, expression: str) -> None:
-    driver = data.driver_add(name).driver
-    driver.type = "SCRIPTED"
-    var = driver.variables.new()
-    var.name = "v"
-    var.type = "SINGLE_PROP"
-    var.targets[0].id_type = "LIGHT"
-    var.targets[0].id = source
-    var.targets[0].data_path = source_name
-    driver.expression = expression
