@@ -66,20 +66,31 @@ LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform
           "specular lobe": ("packs alone", "packs + lobe"),
           "measured cells": ("packs + lobe, smooth", "packs + lobe in MERL cells"),
           "texel blend": ("nearest texel", "blended edges")}
-#: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack.
-HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1"
+#: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack, up to
+#: the rule choosing it for the variant (shaders.shares_view_axes).
+HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_SHARE_VIEW"
 
 
-def light_by_light_shader(key: shaders.ShaderKey):
-    """The variant ``key`` with the per-pack light loop compiled out: every light through
-    its own pack loop, as before issue 19."""
+def _loop_shader(key: shaders.ShaderKey, condition: str):
     import gpu
 
     source = shaders.fragment_source()
     if HOISTED_BRANCH not in source:
         raise ValueError("glsl/brdf/surface_frag.glsl has no per-pack light loop any more")
-    patched = source.replace(HOISTED_BRANCH, "#  if 0")
+    patched = source.replace(HOISTED_BRANCH, condition)
     return gpu.shader.create_from_info(shaders.create_info(key, fragment=patched))
+
+
+def light_by_light_shader(key: shaders.ShaderKey):
+    """The variant ``key`` with the per-pack light loop compiled out: every light through
+    its own pack loop, as before issue 19."""
+    return _loop_shader(key, "#  if 0")
+
+
+def hoisted_shader(key: shaders.ShaderKey):
+    """The variant ``key`` with the per-pack light loop whatever the pack count (the
+    rule takes it only from 2·lights + 4 packs)."""
+    return _loop_shader(key, "#  if SM_PRECONTRACT")
 
 
 def material_binder(bench: Bench, material: GPUMaterial, key, light_rows, shader=None):
@@ -95,15 +106,17 @@ def material_binder(bench: Bench, material: GPUMaterial, key, light_rows, shader
     return bind
 
 
-def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
-    """(before, after) bind functions of one comparison."""
+def binders(bench: Bench, comparison: str, packs: int, n_lights: int,
+            output: str = "DISPLAY"):
+    """(before, after) bind functions of one comparison; ``output="XYZ"`` draws linear XYZ,
+    which the display's tone map does not clip (the GPU replay's correctness twins)."""
     lights = make_lights(n_lights)
     model = synthetic_model("io_iso", packs)
     if comparison == "edge rule":
         out = []
         for rule in LABELS[comparison]:
             material = GPUMaterial(replace(model, edge=rule))
-            key = material.key(lights, precontract=True, output="DISPLAY")
+            key = material.key(lights, precontract=True, output=output)
             out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
     if comparison in ("specular lobe", "measured cells"):
@@ -114,15 +127,15 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int):
         out = []
         for variant in variants:
             material = GPUMaterial(variant)
-            key = material.key(lights, precontract=True, output="DISPLAY")
+            key = material.key(lights, precontract=True, output=output)
             out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
     material = GPUMaterial(model)
-    key = material.key(lights, precontract=True, output="DISPLAY")
+    key = material.key(lights, precontract=True, output=output)
     if comparison == "light loop":
         rows = material.light_texture(lights, True)
         return (material_binder(bench, material, key, rows, light_by_light_shader(key)),
-                material_binder(bench, material, key, rows))
+                material_binder(bench, material, key, rows, hoisted_shader(key)))
     if not key.light_stride:
         raise ValueError(f"{packs} packs × {n_lights} lights do not fit the uniform buffer")
     texture = float_texture(light_texels(model, lights, precontract=True))

@@ -50,7 +50,7 @@ PARSER = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 PARSER.add_argument("--project", default=".", help="the project's checkout")
 PARSER.add_argument("--out", default=str(Path(__file__).resolve().parent / "data"))
 PARSER.add_argument("--families", default="draw,precision,btf,prt",
-                    help="comma-separated subset of draw,precision,btf,prt")
+                    help="comma-separated subset of draw,precision,btf,prt,variants")
 PARSER.add_argument("--draw-size", type=int, default=None,
                     help="override bench_draw's 1200 px target (testing only)")
 PARSER.add_argument("--stride", type=int, default=3,
@@ -69,8 +69,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import bpy  # noqa: E402,F401
 import gpu  # noqa: E402
 
-from spectral_materials.blender import offscreen  # noqa: E402
-from spectral_materials.blender.gpu_context import ensure_gpu  # noqa: E402
+from spectral_materials.blender.gpu import offscreen  # noqa: E402
+from spectral_materials.blender.gpu.context import ensure_gpu  # noqa: E402
 
 OUT = Path(ARGS.out).resolve()
 
@@ -637,7 +637,7 @@ def export_draw(store: Store) -> None:
     """bench_draw's cases through Bench.measure (1 frame, 1 repetition)."""
     import bench_draw as bd
 
-    from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.gpu.offscreen import Target
 
     size = ARGS.draw_size or 1200
     docs = llvmpipe_rows("bench_draw.json")
@@ -698,8 +698,9 @@ def export_xyz_twin(store: Store, bench, bd, layout: str, packs: int, lights, pr
     it is clipped on every pixel from 4 packs on, so its image cannot show a wrong
     shader; linear XYZ is not clipped. Set up as Bench.measure sets up its spectral
     draw, with output="XYZ", drawn and read back by Bench.warm."""
-    from spectral_materials.blender import shaders
-    from spectral_materials.blender.gpu_material import DisplaySettings, GPUMaterial
+    from spectral_materials.blender.brdf.gpu_material import GPUMaterial
+    from spectral_materials.blender.gpu import shaders
+    from spectral_materials.blender.gpu.display import DisplaySettings
 
     model = bd.synthetic_model(layout, packs)
     material = GPUMaterial(model)
@@ -792,6 +793,64 @@ def export_precision(store: Store) -> None:
             gpu.state.face_culling_set("NONE")
 
 
+#: benchmarks/draw_variants.py's comparisons replayed: every factor-pack case; the XYZ
+#: twins only where the shader's arithmetic changed (issue 18's edge rule, lobe, cells).
+VARIANT_TWINS = ("edge rule", "specular lobe", "measured cells")
+#: The light loop's two orders over more pack and light counts than draw_variants.CASES:
+#: on a GPU the crossover is not llvmpipe's (docs/bench_gpu_variants.md).
+LIGHT_LOOP_SWEEP = tuple(("light loop", packs, lights) for packs in (4, 8, 12, 16, 22)
+                         for lights in (2, 4, 8))
+
+
+def export_variants(store: Store) -> None:
+    """benchmarks/draw_variants.py's factor-pack comparisons: each case's before and after
+    draw (``variant_<comparison>_p<packs>_l<lights>_before``/``_after``), the after timed
+    against its before, on the draw benchmark's sphere and target."""
+    import bench_draw as bd
+
+    from benchmarks.draw_variants import CASES, LABELS, binders
+    from spectral_materials.blender.gpu.offscreen import Target
+
+    arrays = bd.sphere_arrays()
+    batches = bd.mesh_batches.MeshBatches.build(arrays)
+    (batch,) = batches.batches.values()
+    vp = bd.view_projection(0.5 / bd.DISC_FRACTION)
+    size = ARGS.draw_size or 1200
+    with Target(size, size) as target:
+        gpu.state.face_culling_set("BACK")
+        try:
+            bench = bd.Bench(target, batch, vp, 1, 1)
+            sweep = [c for c in LIGHT_LOOP_SWEEP if c not in CASES]
+            for comparison, packs, n_lights in (*CASES, *sweep):
+                slug = comparison.replace(" ", "_")
+                stem = f"variant_{slug}_p{packs}_l{n_lights}"
+                outputs = ("DISPLAY", "XYZ") if comparison in VARIANT_TWINS else ("DISPLAY",)
+                for output in outputs:
+                    pair = binders(bench, comparison, packs, n_lights, output=output)
+                    for side, bind, label in zip(("before", "after"), pair,
+                                                 LABELS[comparison]):
+                        start = len(READS)
+                        bench.warm(bind)
+                        (read,) = reads_since(start)
+                        timed = output == "DISPLAY"
+                        name = f"{stem}_{side}" if timed else f"xyz_{stem[8:]}_{side}"
+                        export_event(store, name, EVENTS[read["event"]], read["image"], {
+                            "family": "variants", "group": "variants" if timed
+                            else "variants-xyz", **({} if timed else {"role": "check"}),
+                            "ratio_to": f"{stem}_before" if timed and side == "after"
+                            else None,
+                            "params": {"comparison": comparison, "side": side,
+                                       "label": label, "layout": "io_iso", "packs": packs,
+                                       "lights": n_lights, "mode": "precontract",
+                                       "output": output},
+                            "project": {"source": "benchmarks/draw_variants.py binders"},
+                            "llvmpipe_docs": None},
+                            stride=max(ARGS.stride, 8) if timed else ARGS.check_stride)
+                log(f"  variants: {comparison}, {packs} packs, {n_lights} lights")
+        finally:
+            gpu.state.face_culling_set("NONE")
+
+
 def export_btf(store: Store) -> None:
     """bench_btf.frame_times (1 frame, 1 repetition): RFP and RFNL, 1 and 4 lights."""
     import bench_btf
@@ -839,7 +898,7 @@ def export_prt(store: Store) -> None:
 
     from spectral_materials import blender as addon
     from spectral_materials.blender import prt
-    from spectral_materials.blender.offscreen import Target
+    from spectral_materials.blender.gpu.offscreen import Target
     from spectral_materials.blender.prt import drawer as prt_gpu
 
     addon.register()
@@ -922,7 +981,7 @@ def main() -> None:
     for family in families:
         log(f"{family}:")
         {"draw": export_draw, "precision": export_precision, "btf": export_btf,
-         "prt": export_prt}[family](store)
+         "prt": export_prt, "variants": export_variants}[family](store)
     manifest = {
         "format": 1, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "project": str(ROOT), "project_commit": _git_head(),

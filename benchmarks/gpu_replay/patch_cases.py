@@ -8,7 +8,8 @@ interpolated, BTF lights outermost), whose timings on an H200 are
 docs/gpu/h200_explored_*.json; ``prt_paths`` those of commit 5223be0 (where the PRT albedo
 is filtered, and in what format), timed in docs/gpu/h200_prt_paths_*.json; both led to
 today's shaders. ``current`` patches today's (the loop orders they replaced, timed
-against them in the same run).
+against them in the same run). ``cells_edge`` moves the measured-cells twin's θd index off
+the cell edge that the draw benchmark's sun sits on.
 
     python benchmarks/gpu_replay/patch_cases.py .replay/data [--set current]
 """
@@ -193,7 +194,16 @@ for _case in ("prt_rgb", "prt_image_rgb"):
     PRT_PATHS[f"rgb_hw32_{_case}"] = (_case, {"fragment": [(
         "vec3 albedo = sm_albedo_filtered(c0, w, 0).rgb;",
         "vec3 albedo = textureLod(albedo_tex, vec3(tex_uv, 0.0), 0.0).rgb;")]}, _REPEAT)
-SETS = {"explored": EXPLORED, "prt_paths": PRT_PATHS, "current": CURRENT}
+#: The measured-cells twin with θd's cell index a quarter cell off its edge. The draw
+#: benchmark's sun sits 10° off an orthographic view, which puts θd = 5° (a cell edge) at
+#: every pixel: a tie each renderer's rounding breaks its own way. Replayed beside an
+#: llvmpipe run of the same patch (docs/bench_gpu_variants.md, "Measured cells").
+_THETA_D_INDEX = "floor(hd.z / (0.5 * SM_PI) * float(SM_CELLS_D))"
+CELLS_EDGE: dict[str, tuple[str, dict, dict]] = {
+    "off_edge": ("xyz_measured_cells_p4_l4_after", {"fragment": [(
+        _THETA_D_INDEX, _THETA_D_INDEX.replace("))", ") + 0.25)"))]}, {})}
+SETS = {"explored": EXPLORED, "prt_paths": PRT_PATHS, "current": CURRENT,
+        "cells_edge": CELLS_EDGE}
 
 #: The albedo precisions (``--set albedo_precision``): the exact cases' packed R̃ layers
 #: re-encoded, each filtered by the texture unit: ``half_plain`` RGBA16F; ``half_lo``

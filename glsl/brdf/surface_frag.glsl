@@ -50,11 +50,12 @@ void main()
   return;
 #  endif
   vec3 xyz = vec3(0.0);
-#  if SM_PRECONTRACT && SM_VIEW_AXES != 0 && SM_LIGHTS > 1 && !SM_CELLS
+#  if SM_PRECONTRACT && SM_SHARE_VIEW && SM_VIEW_AXES != 0 && SM_LIGHTS > 1 && !SM_CELLS
   /* Packs outermost, so that the axes depending on the view alone (SM_VIEW_AXES: θo,
    * and φo where the parameterisation has it) are fetched and interpolated once per
    * pack for all lights, and only each light's own axes per light (issue 19). The sum
-   * is the light-by-light one below, reordered. */
+   * is the light-by-light one below, reordered. SM_SHARE_VIEW: where there are enough
+   * packs for that to pay on a GPU (shaders.shares_view_axes). */
   SmLookup lookups[SM_LIGHTS];
   float weight[SM_LIGHTS];
   for (int light = 0; light < SM_LIGHTS; light++) {

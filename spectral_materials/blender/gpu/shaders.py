@@ -39,10 +39,10 @@ FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/ax
 #: a bound keeps compile time and frame time predictable.
 MAX_LIGHTS = 32
 
-#: Up to this many lights, a variant keeps every light's lookups live and fetches the
-#: view's axes once per pack for all of them (glsl/brdf/surface_frag.glsl); beyond it,
-#: light by light. The bound keeps each pixel's live state small (13 values per light)
-#: on GPUs, where it would otherwise spill; it is not yet measured on one.
+#: Up to this many lights, a variant may keep every light's lookups live and fetch the
+#: view's axes once per pack for all of them (glsl/brdf/surface_frag.glsl,
+#: :func:`shares_view_axes`); beyond it, light by light, which keeps each pixel's live
+#: state small (13 values per light).
 MAX_SHARED_VIEW_LIGHTS = 8
 
 #: Light rows go in a uniform buffer while they fit 16 KiB (1024 vec4), the size every
@@ -88,6 +88,21 @@ def cell_defines(cells: tuple) -> dict[str, str]:
     return {"SM_CELLS": "1" if cells else "0",
             **{f"SM_CELLS_{axis}": str(n) for axis, n in zip("HDP", counts)},
             "SM_MIN_CENTRE_COSINE": f"{MIN_CENTRE_COSINE:.9g}"}
+
+
+def shares_view_axes(parameterization: str, packs: int, lights: int) -> bool:
+    """``SM_SHARE_VIEW``: whether the packs run outermost, the view's axes fetched once
+    per pack for all lights, rather than light by light.
+
+    That order keeps every light's lookups live, which costs a GPU occupancy until enough
+    packs share the view's fetches. On an NVIDIA H200 (docs/bench_gpu_variants.md, io_iso,
+    1.0 M pixels) it paid from 2·lights + 4 packs on: 2 lights 0.86× the light-by-light
+    frame at 8 packs (1.10× at 4); 4 lights 0.88× at 12 (1.02× at 8); 8 lights 0.95× at
+    22 (0.99× at 16). llvmpipe gains already at 4 packs × 4 lights (0.77×), but a
+    viewport draws on a GPU.
+    """
+    return (1 < lights <= MAX_SHARED_VIEW_LIGHTS and view_axes_mask(parameterization) != 0
+            and packs >= 2 * lights + 4)
 
 
 def view_axes_mask(name: str) -> int:
@@ -147,6 +162,8 @@ class ShaderKey:
             "SM_LIGHT_STRIDE": str(self.light_stride),
             "SM_VIEW_AXES": str(view_axes_mask(self.parameterization)
                                 if self.lights <= MAX_SHARED_VIEW_LIGHTS else 0),
+            "SM_SHARE_VIEW": "1" if shares_view_axes(self.parameterization, self.packs,
+                                                     self.lights) else "0",
             "SM_COSINE_WEIGHTED": "1" if self.cosine_weighted else "0",
             "SM_PRECONTRACT": "1" if self.precontract else "0",
             **output_defines(SURFACE_REQUESTS[self.output]),

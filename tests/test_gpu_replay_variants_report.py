@@ -1,0 +1,69 @@
+"""docs/bench_gpu_variants.md's script against the committed H200 replay: its ratios are
+the replay's own timings, and its cell-edge table is recomputed from the stored images."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.gpu_replay import variants_report
+
+GPU = Path(__file__).resolve().parents[1] / "docs" / "gpu"
+RESULTS = GPU / "h200_variants_results.json"
+
+
+def _ms(cases, name):
+    return cases[name]["runs"]["blender"]["draw_ms"]["median"]
+
+
+def test_every_comparison_is_stated_with_the_replays_times():
+    results = json.loads(RESULTS.read_text())
+    cases = {c["name"]: c for c in results["cases"]}
+    lines = variant_report_lines(results)
+    for comparison, packs, lights in variants_report.CASES:
+        stem = variants_report.variant_stem(comparison, packs, lights)
+        before, after = _ms(cases, f"{stem}_before"), _ms(cases, f"{stem}_after")
+        row = [line for line in lines if line.startswith(f"| {comparison} | {packs} | {lights} |")]
+        assert len(row) == 1, (comparison, packs, lights)
+        assert f"| {before:.3f} |" in row[0] and f"| {after / before:.3f} |" in row[0]
+
+
+def test_light_loop_table_covers_the_sweep():
+    results = json.loads(RESULTS.read_text())
+    cases = {c["name"]: c for c in results["cases"]}
+    table = variants_report.light_loop_table(cases)
+    assert table[0] == "| io_iso packs | 2 lights | 4 lights | 8 lights |"
+    ratio = _ms(cases, "variant_light_loop_p8_l2_after") / \
+        _ms(cases, "variant_light_loop_p8_l2_before")
+    row = next(line for line in table if line.startswith("| 8 |"))
+    assert row.split(" | ")[1] == f"{ratio:.3f}"
+
+
+def test_image_agreement_counts_differing_pixels():
+    reference = np.zeros((4, 4, 4), np.float32)
+    reference[:2, :, :] = 1.0  # 8 covered pixels
+    gpu = reference.copy()
+    gpu[0, 0, 1] = 1.5  # 50 % off
+    gpu[0, 1, 2] = 1.0005  # under 1e-3
+    gpu[3, 3, :3] = 9.0  # uncovered: not compared
+    a = variants_report.image_agreement(gpu, reference)
+    assert (a["pixels"], a["over"], a["over_1e-2"]) == (8, 1, 1)
+
+
+def test_off_edge_agreement_is_the_other_cells_edges_only():
+    images = dict(np.load(GPU / "h200_cells_edge.npz"))
+    on = variants_report.image_agreement(images["h200_on_edge"], images["llvmpipe_on_edge"])
+    off = variants_report.image_agreement(images["h200_off_edge"], images["llvmpipe_off_edge"])
+    assert on["over"] > 0.3 * on["pixels"]
+    assert off["over"] < 0.01 * off["pixels"]
+
+
+def test_the_committed_page_is_the_scripts_output(monkeypatch):
+    monkeypatch.chdir(GPU.parents[1])
+    page = (GPU.parent / "bench_gpu_variants.md").read_text()
+    assert page == variants_report.page("docs/gpu/h200_variants_results.json")
+
+
+def variant_report_lines(results):
+    cases = {c["name"]: c for c in results["cases"]}
+    return variants_report.variant_table(cases, {})
