@@ -62,6 +62,13 @@ ILLUMINANTS = ("D65", "FL11")
 GRAZING_DEG = 89.5
 BAND_EDGES_DEG = (0.0, 80.0, 85.0, 89.0, 89.5, 89.9, 90.0)
 GOALS = {"mean": 0.5, "p95": 1.0, "max_below": 5.0}
+#: Dense grazing bands: the protocol's pairs put 132 and 36 pairs whose incidence grazes in
+#: 89.5–89.9° and beyond, too few for the rare corner where both angles graze. Each band
+#: here gets DENSE_PAIRS pairs per side, seeded, drawn as the protocol's pairs are
+#: (uniform in solid angle) given that the grazing angle lies in the band.
+DENSE_BANDS_DEG = ((89.0, 89.5), (89.5, 89.9), (89.9, 90.0))
+DENSE_PAIRS = 4000
+DENSE_SEED = 18
 
 # The add-on's defaults: material properties (blender/brdf/properties.py) and scene
 # properties (blender/scene_properties.py).
@@ -190,16 +197,68 @@ class Pairs:
         self.angle = np.degrees(np.arccos(np.clip(lowest, -1.0, 1.0)))
         self.incidence = self.wi[:, 2] <= self.wo[:, 2]
 
+        rng = np.random.default_rng(DENSE_SEED)
+        #: (side, band) → (wi, wo): side "incidence" (θi grazes, θo ≤ θi) or "view".
+        self.dense = {(side, band): grazing_pairs(band, DENSE_PAIRS, rng, side == "incidence")
+                      for side in ("incidence", "view") for band in DENSE_BANDS_DEG}
+
     def reference(self, brdf) -> dict:
-        """5 nm reference XYZ under each illuminant."""
-        return {ill: metrics.reference_xyz(brdf, self.wi, self.wo, ill) for ill in ILLUMINANTS}
+        """5 nm reference XYZ under each illuminant, of the protocol's pairs (by
+        illuminant) and of the dense grazing bands (by ("dense", illuminant))."""
+        out = {ill: metrics.reference_xyz(brdf, self.wi, self.wo, ill) for ill in ILLUMINANTS}
+        for ill in ILLUMINANTS:
+            out["dense", ill] = {key: metrics.reference_xyz(brdf, wi, wo, ill)
+                                 for key, (wi, wo) in self.dense.items()}
+        return out
 
     def errors(self, model, reference: dict) -> dict:
-        """Per illuminant, the ΔE94 statistics of ``model`` (see :func:`error_stats`)."""
-        return {ill: error_stats(metrics.delta_e94_image(
-                    reference[ill], model.xyz(self.wi, self.wo, ill), ill), self.angle,
-                    self.incidence)
-                for ill in ILLUMINANTS}
+        """Per illuminant, the ΔE94 statistics of ``model`` (see :func:`error_stats`) and of
+        its dense grazing bands (see :func:`dense_stats`)."""
+        out = {}
+        for ill in ILLUMINANTS:
+            out[ill] = error_stats(metrics.delta_e94_image(
+                reference[ill], model.xyz(self.wi, self.wo, ill), ill), self.angle,
+                self.incidence)
+            if ("dense", ill) in reference:
+                out[ill]["dense"] = dense_stats({
+                    key: metrics.delta_e94_image(ref, model.xyz(*self.dense[key], ill), ill)
+                    for key, ref in reference["dense", ill].items()})
+        return out
+
+
+def grazing_pairs(band: tuple[float, float], count: int, rng: np.random.Generator,
+                  incidence: bool) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` (wi, wo) pairs uniform in solid angle given that the grazing direction (wi
+    where ``incidence``, else wo) lies in ``band`` (degrees) and the other is no lower:
+    its cosine uniform in the band's, the other's uniform in [that, 1] by rejection
+    (the joint density of two uniform cosines restricted to the band)."""
+    low, high = np.cos(np.radians(band[1])), np.cos(np.radians(band[0]))
+    grazing, other = np.empty(0), np.empty(0)
+    while grazing.size < count:
+        g, o = rng.uniform(low, high, count), rng.uniform(0.0, 1.0, count)
+        keep = o >= g
+        grazing, other = np.concatenate([grazing, g[keep]]), np.concatenate([other, o[keep]])
+
+    def directions(cosine: np.ndarray) -> np.ndarray:
+        phi = rng.uniform(0.0, 2.0 * np.pi, cosine.size)
+        sine = np.sqrt(1.0 - cosine * cosine)
+        return np.stack([sine * np.cos(phi), sine * np.sin(phi), cosine], axis=-1)
+
+    g, o = directions(grazing[:count]), directions(other[:count])
+    return (g, o) if incidence else (o, g)
+
+
+def dense_stats(de_by_band: dict) -> dict:
+    """Per side, each dense band's mean, its standard error, p95 and max, and whether
+    the bands beyond 89.5° have a mean and a max no larger than 89–89.5°'s."""
+    out = {}
+    for side in ("incidence", "view"):
+        bands = [{"from": lo, "to": hi, "count": int(de.size), "mean": float(de.mean()),
+                  "se": float(de.std(ddof=1) / np.sqrt(de.size)),
+                  "p95": float(np.percentile(de, 95)), "max": float(de.max())}
+                 for (s, (lo, hi)), de in de_by_band.items() if s == side]
+        out[side] = {"bands": bands, "falls": falls_to_90(bands)}
+    return out
 
 
 def error_stats(de: np.ndarray, angle: np.ndarray, incidence: np.ndarray) -> dict:
@@ -328,6 +387,7 @@ def run(quick: bool) -> dict:
             "defaults": {"packs": DEFAULT_PACKS, "pack_size": DEFAULT_PACK_SIZE},
             "illuminants": list(ILLUMINANTS), "goals": GOALS, "grazing_deg": GRAZING_DEG,
             "band_edges_deg": list(BAND_EDGES_DEG), "pairs": int(pairs.angle.size),
+            "dense_bands_deg": [list(b) for b in DENSE_BANDS_DEG], "dense_pairs": DENSE_PAIRS,
             "merl_timings": merl_timings, "rows": rows,
             "seconds": time.perf_counter() - start}
 
