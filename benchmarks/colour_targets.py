@@ -52,7 +52,7 @@ from spectral_materials.core.brdf.factor import (
 )
 from spectral_materials.core.brdf.job import FactorOptions, drawn_cells, factor_material
 from spectral_materials.core.brdf.params import get_parameterization
-from spectral_materials.core.colour import scene_basis, spectra
+from spectral_materials.core.colour import pipeline as colour_pipeline, scene_basis, spectra
 
 from . import harness, measured
 from .colour_targets_report import markdown
@@ -191,7 +191,7 @@ class Pairs:
     which of the two it is (``incidence``: θi ≥ θo, where f·cosθi falls to 0 at 90°; the
     others graze the view, where the radiance stays)."""
 
-    def __init__(self):
+    def __init__(self, dense: bool = True):
         self.wi, self.wo = metrics.random_direction_pairs()
         lowest = np.minimum(self.wi[:, 2], self.wo[:, 2])
         self.angle = np.degrees(np.arccos(np.clip(lowest, -1.0, 1.0)))
@@ -200,28 +200,38 @@ class Pairs:
         rng = np.random.default_rng(DENSE_SEED)
         #: (side, band) → (wi, wo): side "incidence" (θi grazes, θo ≤ θi) or "view".
         self.dense = {(side, band): grazing_pairs(band, DENSE_PAIRS, rng, side == "incidence")
-                      for side in ("incidence", "view") for band in DENSE_BANDS_DEG}
+                      for side in ("incidence", "view") for band in DENSE_BANDS_DEG
+                      } if dense else {}
 
     def reference(self, brdf) -> dict:
         """5 nm reference XYZ under each illuminant, of the protocol's pairs (by
         illuminant) and of the dense grazing bands (by ("dense", illuminant))."""
         out = {ill: metrics.reference_xyz(brdf, self.wi, self.wo, ill) for ill in ILLUMINANTS}
-        for ill in ILLUMINANTS:
+        for ill in ILLUMINANTS if self.dense else ():
             out["dense", ill] = {key: metrics.reference_xyz(brdf, wi, wo, ill)
                                  for key, (wi, wo) in self.dense.items()}
         return out
 
-    def errors(self, model, reference: dict) -> dict:
+    def errors(self, model, reference: dict, clamped: bool = True) -> dict:
         """Per illuminant, the ΔE94 statistics of ``model`` (see :func:`error_stats`) and of
-        its dense grazing bands (see :func:`dense_stats`)."""
+        its dense grazing bands (see :func:`dense_stats`); ``clamped=False``: its XYZ
+        without the clamp at 0 that issue 18 added (the state before it)."""
+        def xyz(wi, wo, ill):
+            if clamped:
+                return model.xyz(wi, wo, ill)
+            weights = colour_pipeline.xyz_weights(ill, model.wavelengths, model.basis)
+            coefficients = model.coefficients(wi, wo)
+            if not model.cosine_weighted:
+                coefficients = coefficients * np.clip(wi[:, 2:3], 0.0, None)
+            return coefficients @ weights
+
         out = {}
         for ill in ILLUMINANTS:
             out[ill] = error_stats(metrics.delta_e94_image(
-                reference[ill], model.xyz(self.wi, self.wo, ill), ill), self.angle,
-                self.incidence)
+                reference[ill], xyz(self.wi, self.wo, ill), ill), self.angle, self.incidence)
             if ("dense", ill) in reference:
                 out[ill]["dense"] = dense_stats({
-                    key: metrics.delta_e94_image(ref, model.xyz(*self.dense[key], ill), ill)
+                    key: metrics.delta_e94_image(ref, xyz(*self.dense[key], ill), ill)
                     for key, ref in reference["dense", ill].items()})
         return out
 
@@ -229,9 +239,10 @@ class Pairs:
 def grazing_pairs(band: tuple[float, float], count: int, rng: np.random.Generator,
                   incidence: bool) -> tuple[np.ndarray, np.ndarray]:
     """``count`` (wi, wo) pairs uniform in solid angle given that the grazing direction (wi
-    where ``incidence``, else wo) lies in ``band`` (degrees) and the other is no lower:
-    its cosine uniform in the band's, the other's uniform in [that, 1] by rejection
-    (the joint density of two uniform cosines restricted to the band)."""
+    where ``incidence``, else wo) lies in ``band`` (degrees) and the other is no lower.
+    Both cosines are drawn uniform, the grazing one within the band, and kept where the
+    other is the higher: the joint density of two uniform cosines restricted to that
+    region (the grazing cosine's marginal ∝ 1 − c, the other's uniform on [c, 1])."""
     low, high = np.cos(np.radians(band[1])), np.cos(np.radians(band[0]))
     grazing, other = np.empty(0), np.empty(0)
     while grazing.size < count:
@@ -321,9 +332,10 @@ def run_case(case: Case, settings: str, theta_cells: int, packs: int,
         row[label] = _stage(factor_material(case.brdf, choice.basis, options), pairs,
                             reference)
         if label == "before":
-            # The edge rule is a lookup rule: the same packs under the rule before it.
-            row["original"] = {"errors": pairs.errors(replace(row["before"]["model"],
-                                                              edge="linear"), reference)}
+            # The edge rule is a lookup rule: the same packs under the rule before it, and
+            # without each light's clamp at 0 (FactoredBRDF.xyz), as before issue 18.
+            original = replace(row["before"]["model"], edge="linear")
+            row["original"] = {"errors": pairs.errors(original, reference, clamped=False)}
     for label in ("before", "lobe", "horizon", "after"):
         row[label].pop("model", None)
     return row
@@ -370,7 +382,7 @@ def run(quick: bool) -> dict:
     demo_theta = QUICK_THETA_CELLS if quick else DEMO_THETA_CELLS
     cap = QUICK_MAX_PACKS if quick else None
     cases, merl_timings = build_cases()
-    pairs = Pairs()
+    pairs = Pairs(dense=not quick)
     demo_cases = [c for c in cases if c.demo_packs is not None]
     demo_choice = choose_basis(demo_cases, DEMO_LIGHTS)
     rows = []

@@ -50,8 +50,10 @@ def glsl_counts() -> dict:
     out = {"sites": sites, "rows": []}
     for layout, shape in LAYOUTS.items():
         d = len(shape)
-        # With several lights (precontract), the view's axes are fetched once per pack
-        # for all of them (glsl/brdf/surface_frag.glsl, SM_VIEW_AXES).
+        # With several lights (precontract) and at least 2·lights + 4 packs
+        # (shaders.shares_view_axes), the view's axes are fetched once per pack for all
+        # of them (glsl/brdf/surface_frag.glsl, SM_SHARE_VIEW); fewer packs draw light by
+        # light, each further light paying every axis.
         view = len(get_parameterization(layout).view_axes)
         for precontract in (True, False):
             dots = 3 if precontract else m

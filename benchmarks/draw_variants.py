@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -52,6 +53,9 @@ from . import harness
 from .draw import Bench, bench_target, make_lights, sphere_batch, view_projection
 from .draw_baseline import VIEW_ORIGIN
 from .synthetic import DISC_FRACTION, synthetic_model
+
+if TYPE_CHECKING:
+    import gpu
 
 #: (comparison, packs, lights) measured.
 CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
@@ -71,7 +75,7 @@ LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform
 HOISTED_BRANCH = "#  if SM_PRECONTRACT && SM_SHARE_VIEW"
 
 
-def _loop_shader(key: shaders.ShaderKey, condition: str):
+def _loop_shader(key: shaders.ShaderKey, condition: str) -> gpu.types.GPUShader:
     import gpu
 
     source = shaders.fragment_source()
@@ -81,13 +85,13 @@ def _loop_shader(key: shaders.ShaderKey, condition: str):
     return gpu.shader.create_from_info(shaders.create_info(key, fragment=patched))
 
 
-def light_by_light_shader(key: shaders.ShaderKey):
+def light_by_light_shader(key: shaders.ShaderKey) -> gpu.types.GPUShader:
     """The variant ``key`` with the per-pack light loop compiled out: every light through
     its own pack loop, as before issue 19."""
     return _loop_shader(key, "#  if 0")
 
 
-def hoisted_shader(key: shaders.ShaderKey):
+def hoisted_shader(key: shaders.ShaderKey) -> gpu.types.GPUShader:
     """The variant ``key`` with the per-pack light loop whatever the pack count (the
     rule takes it only from 2·lights + 4 packs)."""
     return _loop_shader(key, "#  if SM_PRECONTRACT")

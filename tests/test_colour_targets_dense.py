@@ -2,8 +2,10 @@
 distributed as the protocol's pairs given the band, and the falls check reads them."""
 
 import numpy as np
+from scipy import stats
 
 from benchmarks import colour_targets as ct
+from spectral_materials.core.brdf import metrics
 
 
 def test_grazing_pairs_lie_in_their_band_with_the_other_direction_higher():
@@ -19,21 +21,41 @@ def test_grazing_pairs_lie_in_their_band_with_the_other_direction_higher():
         assert np.all(other[:, 2] >= grazing[:, 2])
 
 
-def test_grazing_pairs_follow_uniform_pairs_given_the_band():
-    """Against rejection from the protocol's own sampler (uniform in solid angle): the
-    other direction's cosine is uniform on [grazing cosine, 1] (mean ≈ 0.5 here), the
-    grazing cosine uniform in the band, azimuths uniform."""
-    rng = np.random.default_rng(1)
-    wi, wo = ct.grazing_pairs((80.0, 85.0), 20000, rng, True)
-    low, high = np.cos(np.radians(85.0)), np.cos(np.radians(80.0))
-    # Reference values from the joint density of two uniform cosines on the band.
-    c = np.linspace(low, high, 20001)
-    weight = 1.0 - c
-    expected_grazing = np.sum(c * weight) / np.sum(weight)
-    expected_other = np.sum((1.0 + c) / 2.0 * weight) / np.sum(weight)
-    assert abs(wi[:, 2].mean() - expected_grazing) < 1e-3
-    assert abs(wo[:, 2].mean() - expected_other) < 5e-3
-    assert abs(np.mean(np.cos(np.arctan2(wi[:, 1], wi[:, 0])))) < 0.02
+def _relative_azimuth(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.mod(np.arctan2(a[:, 1], a[:, 0]) - np.arctan2(b[:, 1], b[:, 0]), 2 * np.pi)
+
+
+def test_grazing_pairs_are_the_protocols_pairs_given_the_band():
+    """Against the protocol's own sampler (uniform in solid angle) filtered to the band,
+    on each side: the grazing cosine, the other's and the relative azimuth have the same
+    distributions (two-sample Kolmogorov–Smirnov)."""
+    band = (80.0, 85.0)
+    low, high = np.cos(np.radians(band[1])), np.cos(np.radians(band[0]))
+    rng = np.random.default_rng(4)
+    wi_all = metrics.uniform_hemisphere(rng, 400_000)
+    wo_all = metrics.uniform_hemisphere(rng, 400_000)
+    for incidence in (True, False):
+        grazing_all, other_all = (wi_all, wo_all) if incidence else (wo_all, wi_all)
+        keep = (grazing_all[:, 2] >= low) & (grazing_all[:, 2] <= high) & \
+            (other_all[:, 2] >= grazing_all[:, 2])
+        assert keep.sum() > 10_000
+        wi, wo = ct.grazing_pairs(band, 10_000, rng, incidence)
+        grazing, other = (wi, wo) if incidence else (wo, wi)
+        for ours, theirs in ((grazing[:, 2], grazing_all[keep, 2]),
+                             (other[:, 2], other_all[keep, 2]),
+                             (_relative_azimuth(wi, wo),
+                              _relative_azimuth(wi_all[keep], wo_all[keep]))):
+            assert stats.ks_2samp(ours, theirs).pvalue > 1e-3
+
+
+def test_a_sampler_without_the_rejection_is_told_apart():
+    """The KS comparison above notices the grazing cosine drawn uniform in the band
+    without keeping the other direction above it (the mistake it guards against)."""
+    band = (60.0, 85.0)
+    low, high = np.cos(np.radians(band[1])), np.cos(np.radians(band[0]))
+    rng = np.random.default_rng(5)
+    wi, wo = ct.grazing_pairs(band, 20_000, rng, True)
+    assert stats.ks_2samp(wi[:, 2], rng.uniform(low, high, 20_000)).pvalue < 1e-6
 
 
 def test_dense_stats_and_the_falls_check():

@@ -809,6 +809,7 @@ def export_variants(store: Store) -> None:
     import bench_draw as bd
 
     from benchmarks.draw_variants import CASES, LABELS, binders
+    from benchmarks.gpu_replay.variants_report import VARIANT_PREFIX, variant_stem
     from spectral_materials.blender.gpu.offscreen import Target
 
     arrays = bd.sphere_arrays()
@@ -822,8 +823,7 @@ def export_variants(store: Store) -> None:
             bench = bd.Bench(target, batch, vp, 1, 1)
             sweep = [c for c in LIGHT_LOOP_SWEEP if c not in CASES]
             for comparison, packs, n_lights in (*CASES, *sweep):
-                slug = comparison.replace(" ", "_")
-                stem = f"variant_{slug}_p{packs}_l{n_lights}"
+                stem = variant_stem(comparison, packs, n_lights)
                 outputs = ("DISPLAY", "XYZ") if comparison in VARIANT_TWINS else ("DISPLAY",)
                 for output in outputs:
                     pair = binders(bench, comparison, packs, n_lights, output=output)
@@ -833,7 +833,8 @@ def export_variants(store: Store) -> None:
                         bench.warm(bind)
                         (read,) = reads_since(start)
                         timed = output == "DISPLAY"
-                        name = f"{stem}_{side}" if timed else f"xyz_{stem[8:]}_{side}"
+                        name = f"{stem}_{side}" if timed else \
+                            f"xyz_{stem[len(VARIANT_PREFIX):]}_{side}"
                         export_event(store, name, EVENTS[read["event"]], read["image"], {
                             "family": "variants", "group": "variants" if timed
                             else "variants-xyz", **({} if timed else {"role": "check"}),

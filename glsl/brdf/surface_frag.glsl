@@ -58,7 +58,9 @@ void main()
    * packs for that to pay on a GPU (shaders.shares_view_axes). */
   SmLookup lookups[SM_LIGHTS];
   float weight[SM_LIGHTS];
+  vec3 light_xyz[SM_LIGHTS]; /* each light's sum, clamped at 0 as the other branch's */
   for (int light = 0; light < SM_LIGHTS; light++) {
+    light_xyz[light] = vec3(0.0);
     vec3 wi_world;
     float irradiance = sm_light_incidence(light, P, wi_world);
     vec3 wi = sm_to_local(frame, wi_world);
@@ -76,7 +78,7 @@ void main()
       weight[light] *= wi.z;
 #    endif
 #    if SM_LOBE_TEXEL > 0
-      xyz += irradiance * sm_lobe_xyz(wi, wo, light);
+      light_xyz[light] = irradiance * sm_lobe_xyz(wi, wo, light);
 #    endif
     }
   }
@@ -89,11 +91,14 @@ void main()
       if (weight[light] != 0.0) {
         vec4 product = view_product * sm_pack_product_axes(lookups[light], p, own_axes);
         int x = SM_LIGHT_HEADER + 3 * p;
-        xyz += weight[light] * vec3(dot(sm_light_texel(x, light), product),
-                                    dot(sm_light_texel(x + 1, light), product),
-                                    dot(sm_light_texel(x + 2, light), product));
+        light_xyz[light] += weight[light] * vec3(dot(sm_light_texel(x, light), product),
+                                                 dot(sm_light_texel(x + 1, light), product),
+                                                 dot(sm_light_texel(x + 2, light), product));
       }
     }
+  }
+  for (int light = 0; light < SM_LIGHTS; light++) {
+    xyz += max(light_xyz[light], vec3(0.0));
   }
 #  else
   for (int light = 0; light < SM_LIGHTS; light++) {
@@ -101,10 +106,12 @@ void main()
     float irradiance = sm_light_incidence(light, P, wi_world);
     vec3 wi = sm_to_local(frame, wi_world);
     if (irradiance > 0.0 && wi.z > 0.0 && wo.z > 0.0) {
+      /* Each light's XYZ clamped at 0 (FactoredBRDF.xyz): the packs' signed rest can
+       * dip below 0 beside a black reference near the horizon. */
 #    if SM_CELLS
-      xyz += irradiance * sm_cells_xyz(wi, wo, light);
+      xyz += irradiance * max(sm_cells_xyz(wi, wo, light), vec3(0.0));
 #    else
-      xyz += irradiance * sm_stored_xyz(wi, wo, light);
+      xyz += irradiance * max(sm_stored_xyz(wi, wo, light), vec3(0.0));
 #    endif
     }
   }

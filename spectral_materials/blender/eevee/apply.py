@@ -247,6 +247,7 @@ class _Build:
         # Built under a scratch name and checked before anything of the material changes.
         group = eevee_nodes.build_group(self.material, self.model, self.image, keys, fit,
                                         use_uv_tangent=self.use_uv, shadows=self.shadows,
+                                        to_rgb=self.to_rgb,
                                         name=eevee_nodes.group_name(self.material)
                                         + " (building)")
         return group, fill, fit

@@ -314,15 +314,18 @@ def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
 
 
 def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fit: dict, *,
-                use_uv_tangent: bool = False, name: str | None = None, shadows: bool = False):
+                use_uv_tangent: bool = False, name: str | None = None, shadows: bool = False,
+                to_rgb: np.ndarray | None = None):
     """(Re)write the node group ``name`` (default: the material's); returns it.
 
     ``lights``: the spectral lights, the key light first; each gets its own incidence,
     lookups, packs and lobe frames, summed into the ``Spectral lights`` output. ``fit``
     (``core.prefilter.fit_principled``) feeds the Principled outputs. ``shadows``: each
     light's radiance times its EEVEE shadow, read through its twin lights
-    (:mod:`.shadow_nodes`; the caller makes the twins). Raises ValueError
-    for what the EEVEE path cannot reconstruct.
+    (:mod:`.shadow_nodes`; the caller makes the twins). ``to_rgb``: the 3 × 3 the
+    lights' RGB weights were made with (``prefilter.scene_linear_matrix``); given, each
+    light's XYZ is clamped at 0, as ``FactoredBRDF.xyz`` and the GLSL clamp it. Raises
+    ValueError for what the EEVEE path cannot reconstruct.
     """
     parameterization = model.grid.parameterization.name
     if parameterization not in SUPPORTED:
@@ -343,7 +346,8 @@ def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fi
     total = None
     for index, light in enumerate(lights):
         label = "key light" if index == 0 else f"light {index + 1}"
-        radiance = _light_radiance(g, model, image, light, frame, label, base, shadows)
+        radiance = _light_radiance(g, model, image, light, frame, label, base, shadows,
+                                   to_rgb)
         total = radiance if total is None else g.vmath("ADD", total, radiance,
                                                        column=base + 34, label="Σ lights")
     g.begin("Other lights: Lambert + GGX fitted under their spectrum")
@@ -353,8 +357,24 @@ def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fi
     return group
 
 
+#: The frame holding each light's clamp (its label's end).
+CLAMP_FRAME = "XYZ clamped at 0"
+
+
+def _clamped_in_xyz(g: Graph, rgb, to_rgb: np.ndarray, column: int, label: str):
+    """``rgb`` with its XYZ clamped at 0: to XYZ by ``to_rgb``'s inverse, the maximum with
+    0, and back. Not in RGB: a colour outside the working space's gamut has a negative
+    RGB component and is right; no reflection has a negative XYZ."""
+    rows = np.asarray(to_rgb, dtype=np.float64)
+    xyz = g.combine(*(g.vmath("DOT_PRODUCT", rgb, tuple(r), column=column)
+                      for r in np.linalg.inv(rows)), column=column + 1)
+    xyz = g.vmath("MAXIMUM", xyz, (0.0, 0.0, 0.0), column=column + 1, label="XYZ ≥ 0")
+    return g.combine(*(g.vmath("DOT_PRODUCT", xyz, tuple(r), column=column + 2)
+                       for r in rows), column=column + 2, label=label)
+
+
 def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, label: str,
-                    base: int, shadowed: bool):
+                    base: int, shadowed: bool, to_rgb: np.ndarray | None = None):
     """One spectral light's reflected radiance (scene-linear RGB), its frames labelled
     ``label``: incidence, coordinates, axis lookups, packs and the lobe; ``shadowed``:
     times its visibility through its twin lights (:mod:`.shadow_nodes`)."""
@@ -394,6 +414,9 @@ def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, 
         radiance = g.vmath("ADD", radiance, g.vmath("SCALE", lobe, scale=lit_scale,
                                                     column=base + 11),
                            column=base + 11, label=f"{label} with lobe")
+    if to_rgb is not None:
+        g.begin(f"{label}: {CLAMP_FRAME}")
+        radiance = _clamped_in_xyz(g, radiance, to_rgb, base + 19, f"{label}, XYZ ≥ 0")
     if shadowed:
         visibility = light_visibility(g, wi_world, frame[0].outputs["Incoming"], base + 12,
                                       label)
@@ -411,10 +434,13 @@ UNIFORM_BLOCK_FACTOR = 1.504
 UNIFORM_BLOCK_LIMIT = 65536
 
 
-def uniform_bytes(group) -> int:
-    """The predicted size of EEVEE's node-constant uniform block for this group."""
+def uniform_bytes(group, skip_frames: str | None = None) -> int:
+    """The predicted size of EEVEE's node-constant uniform block for this group (without
+    the nodes in frames whose label ends with ``skip_frames``)."""
     total = 0
     for node in group.nodes:
+        if skip_frames and node.parent is not None and node.parent.label.endswith(skip_frames):
+            continue
         for socket in node.inputs:
             if socket.is_linked or not hasattr(socket, "default_value"):
                 continue

@@ -39,10 +39,10 @@ FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/ax
 #: a bound keeps compile time and frame time predictable.
 MAX_LIGHTS = 32
 
-#: Up to this many lights, a variant may keep every light's lookups live and fetch the
-#: view's axes once per pack for all of them (glsl/brdf/surface_frag.glsl,
-#: :func:`shares_view_axes`); beyond it, light by light, which keeps each pixel's live
-#: state small (13 values per light).
+#: Up to this many lights a variant can keep every light's lookups live and fetch the
+#: view's axes once per pack for all of them (``SM_VIEW_AXES``, glsl/brdf/surface_frag.glsl;
+#: whether it does is :func:`shares_view_axes`); beyond it, light by light, which keeps
+#: each pixel's live state small (16 values per light).
 MAX_SHARED_VIEW_LIGHTS = 8
 
 #: Light rows go in a uniform buffer while they fit 16 KiB (1024 vec4), the size every
@@ -90,19 +90,27 @@ def cell_defines(cells: tuple) -> dict[str, str]:
             "SM_MIN_CENTRE_COSINE": f"{MIN_CENTRE_COSINE:.9g}"}
 
 
+#: At most this many lights share the view's axes (:func:`shares_view_axes`): beyond,
+#: each light's own sum (kept for its clamp at 0) costs a GPU more than the sharing saves.
+SHARED_VIEW_RULE_LIGHTS = 4
+
+
 def shares_view_axes(parameterization: str, packs: int, lights: int) -> bool:
     """``SM_SHARE_VIEW``: whether the packs run outermost, the view's axes fetched once
     per pack for all lights, rather than light by light.
 
-    That order keeps every light's lookups live, which costs a GPU occupancy until enough
-    packs share the view's fetches. On an NVIDIA H200 (docs/bench_gpu_variants.md, io_iso,
-    1.0 M pixels) it paid from 2·lights + 4 packs on: 2 lights 0.86× the light-by-light
-    frame at 8 packs (1.10× at 4); 4 lights 0.88× at 12 (1.02× at 8); 8 lights 0.95× at
-    22 (0.99× at 16). llvmpipe gains already at 4 packs × 4 lights (0.77×), but a
-    viewport draws on a GPU.
+    That order keeps every light's lookups and its own XYZ sum live (each light's XYZ is
+    clamped at 0), which costs a GPU occupancy until enough packs share the view's
+    fetches. On an NVIDIA H200 (docs/bench_gpu_variants.md, io_iso, 1.0 M pixels) it
+    took 0.85× the light-by-light frame with 2 lights from 8 packs on (1.10× at 4), and
+    with 4 lights 0.96× at 12 packs, 0.80× at 22 (1.19× at 8); with 8 lights it lost at
+    every pack count measured (1.07× at 22, 1.78× at 8). llvmpipe gains from fewer packs
+    (0.77× at 4 packs × 4 lights), but a viewport draws on a GPU. Measured on io_iso (one
+    view axis) alone, on one GPU: the rule between those counts, and for io and ea (whose
+    φo is shared too), is unmeasured.
     """
-    return (1 < lights <= MAX_SHARED_VIEW_LIGHTS and view_axes_mask(parameterization) != 0
-            and packs >= 2 * lights + 4)
+    return (1 < lights <= min(SHARED_VIEW_RULE_LIGHTS, MAX_SHARED_VIEW_LIGHTS)
+            and view_axes_mask(parameterization) != 0 and packs >= 2 * lights + 4)
 
 
 def view_axes_mask(name: str) -> int:

@@ -177,12 +177,15 @@ class FactoredBRDF:
         Normalised as shared/PROTOCOL.md says (white Lambertian at normal
         incidence → Y = 1). With a basis this is the paper's coefficient dot
         product ``Σ_j R̃_j Ĩ_j``; otherwise a Riemann sum over ``.wavelengths``.
+        Clamped at 0 per component, as the shaders clamp each light's XYZ: no
+        reflection has a negative tristimulus value, yet the packs' signed rest can
+        dip below 0 beside a black reference near the horizon.
         """
         weights = colour_pipeline.xyz_weights(illuminant, self.wavelengths, self.basis)
         coeffs = self.coefficients(wi, wo)
         if not self.cosine_weighted:
             coeffs = coeffs * np.clip(np.asarray(wi)[:, 2:3], 0.0, None)
-        return coeffs @ weights
+        return np.maximum(coeffs @ weights, 0.0)
 
     # ---------------------------------------------------------------- packs
 

@@ -194,7 +194,8 @@ def shade_xyz(model: FactoredBRDF, points: np.ndarray, normals: np.ndarray,
         reflected = model.coefficients(wi, wo)
         if not model.cosine_weighted:
             reflected = reflected * wi[:, 2:3]
-        return reflected @ light.weights(model.wavelengths, model.basis)
+        # Each light's XYZ clamped at 0, as FactoredBRDF.xyz and the shaders clamp it.
+        return np.maximum(reflected @ light.weights(model.wavelengths, model.basis), 0.0)
 
     return _shade(points, normals, tangents, view, lights, reflect, two_sided)
 

@@ -203,11 +203,15 @@ def _synthetic_hd(packs: int):
 
 
 def test_uniform_block_prediction_matches_the_measured_limit(clean_scene):
-    """hd at 38 packs linked and at 39 did not (65 552 B), on this machine's Mesa."""
+    """hd at 38 packs linked and at 39 did not (65 552 B), on this machine's Mesa, in a
+    group without the light's XYZ clamp (added later): its frame is left out here."""
     counts = {}
     for packs in (1, 2):
         material = cube_material(storage.as_stored(_synthetic_hd(packs)), node_tree=True)
-        counts[packs] = eevee.apply_eevee(material, clean_scene)["uniform_bytes"]
+        eevee.apply_eevee(material, clean_scene)
+        group = bpy.data.node_groups[eevee_nodes.group_name(material)]
+        counts[packs] = eevee_nodes.uniform_bytes(group, eevee_nodes.CLAMP_FRAME)
+        assert counts[packs] < eevee_nodes.uniform_bytes(group)
     per_pack = counts[2] - counts[1]
     predicted_39 = counts[1] + 38 * per_pack
     assert abs(predicted_39 - 65552) < 0.01 * 65552
@@ -457,3 +461,34 @@ def test_a_normal_facing_away_is_flipped_as_the_draw_handler_flips_it(clean_scen
                                    xyz[4:12, 4:12].reshape(-1, 3),
                                    colour_pipeline.white_xyz("D65", WL))
     assert reference[0, 1] > 0.05 and de.mean() <= MEAN_BOUND, de.mean()
+
+
+def test_each_lights_negative_xyz_is_clamped_as_the_mirror_clamps_it(clean_scene):
+    """Packs lowered until some pairs reflect a negative XYZ, under two suns: each light's
+    XYZ is clamped at 0 in the nodes (through XYZ, not RGB), so one light's negative does
+    not darken the other's, as in the float64 evaluation."""
+    model = _model("io_iso", (16, 32, 16))
+    spectral = np.asarray(model.spectral)
+    model = replace(model, spectral=spectral - 0.6 * np.abs(spectral).mean(axis=0))
+    extra = (60.0, 200.0, "FL2")
+    xyz, _ = eevee_render.render_sphere_eevee(model, 20.0, "D65", 64, extra_suns=(extra,),
+                                              spectral_lights=2)
+    space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
+    lights = [shading.protocol_sun(20.0, "D65", WL)]
+    alpha, phi = np.radians(extra[0]), np.radians(extra[1])
+    toward = np.array([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi),
+                       np.cos(alpha)])
+    lights.append(replace(shading.protocol_sun(0.0, "FL2", WL), axis=tuple(-toward)))
+    points, mask = shading.sphere_pixels(64)
+    per_light = [shading.shade_xyz(model, points, points, np.zeros_like(points),
+                                   shading.View(), [light], two_sided=False)
+                 for light in lights]
+    # Without the clamp in the nodes this fails (mean ΔE94 far over the bound): checked.
+    assert all((p >= 0).all() for p in per_light)
+    reference = np.zeros((64, 64, 3))
+    reference[mask] = per_light[0] + per_light[1]
+    to_rgb = prefilter.scene_linear_matrix(colour_pipeline.white_xyz("D65", WL), space)
+    inner = ndimage.binary_erosion(mask, iterations=2)
+    de = colour_pipeline.delta_e94(prefilter.clamped_xyz(reference[inner], to_rgb),
+                                   xyz[inner], colour_pipeline.white_xyz("D65", WL))
+    assert de.mean() <= MEAN_BOUND and np.percentile(de, 95) <= P95_BOUND
