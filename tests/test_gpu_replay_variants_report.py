@@ -48,7 +48,7 @@ def test_patched_copies_are_left_out_of_the_agreement_table():
     unclamped = json.loads((GPU / "h200_variants_unclamped_results.json").read_text())
     table = "\n".join(variants_report.agreement_table(
         {c["name"]: c for c in unclamped["cases"]}))
-    assert "xyz_measured_cells_p4_l4_after`" in table and "__" not in table
+    assert "| xyz_measured_cells_p4_l4_after |" in table and "__" not in table
 
 
 def test_image_agreement_counts_differing_pixels():

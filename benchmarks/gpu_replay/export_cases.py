@@ -29,6 +29,7 @@ Writes ``OUT/manifest.json``, ``OUT/blobs/*`` (content-addressed, shared between
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
 import hashlib
 import json
@@ -730,6 +731,25 @@ def export_xyz_twin(store: Store, bench, bd, layout: str, packs: int, lights, pr
                      "llvmpipe_docs": None}, stride=ARGS.check_stride)
 
 
+@contextlib.contextmanager
+def _sphere_bench(bd):
+    """The draw benchmark's Bench on its sphere and target (1 frame, 1 repetition), back
+    faces culled as the benchmark draws."""
+    from spectral_materials.blender.gpu.offscreen import Target
+
+    arrays = bd.sphere_arrays()
+    batches = bd.mesh_batches.MeshBatches.build(arrays)
+    (batch,) = batches.batches.values()
+    vp = bd.view_projection(0.5 / bd.DISC_FRACTION)
+    size = ARGS.draw_size or 1200
+    with Target(size, size) as target:
+        gpu.state.face_culling_set("BACK")
+        try:
+            yield bd.Bench(target, batch, vp, 1, 1)
+        finally:
+            gpu.state.face_culling_set("NONE")
+
+
 #: (packs, lights) of the factor precisions' draws: benchmarks/factor_precision.py's cases
 #: and the pack counts of the draw family.
 PRECISION_CASES = ((4, 1), (22, 1), (48, 1), (22, 4))
@@ -746,51 +766,40 @@ def export_precision(store: Store) -> None:
     from benchmarks.draw_variants import material_binder
     from benchmarks.factor_precision import FAST
     from spectral_materials.blender.brdf.gpu_material import GPUMaterial
-    from spectral_materials.blender.gpu.offscreen import Target
 
-    arrays = bd.sphere_arrays()
-    batches = bd.mesh_batches.MeshBatches.build(arrays)
-    (batch,) = batches.batches.values()
-    vp = bd.view_projection(0.5 / bd.DISC_FRACTION)
-    size = ARGS.draw_size or 1200
-    with Target(size, size) as target:
-        gpu.state.face_culling_set("BACK")
-        try:
-            bench = bd.Bench(target, batch, vp, 1, 1)
-            for packs, n_lights in PRECISION_CASES:
-                lights = bd.make_lights(n_lights)
-                model = bd.synthetic_model("io_iso", packs)
-                exact_name = f"draw_io_iso_precontract_p{packs}_l{n_lights}"
-                for precision in ("exact", *FAST):
-                    material = GPUMaterial(model, precision)
-                    for output in ("DISPLAY", "XYZ"):
-                        key = material.key(lights, precontract=True, output=output)
-                        bind = material_binder(bench, material, key,
-                                               material.light_texture(lights, True))
-                        start = len(READS)
-                        bench.warm(bind)
-                        (read,) = reads_since(start)
-                        timed = output == "DISPLAY"
-                        base = exact_name if precision == "exact" else \
-                            f"{exact_name}_{precision}"
-                        name = base if timed else base.replace("draw_", "xyz_", 1)
-                        export_event(store, name, EVENTS[read["event"]], read["image"], {
-                            "family": "factor_packs", "group": "precision" if timed
-                            else "precision-xyz", **({} if timed else {"role": "check"}),
-                            "ratio_to": f"draw_baseline_l{n_lights}" if timed else None,
-                            "exact_twin": exact_name if timed else None,
-                            "params": {"layout": "io_iso", "packs": packs,
-                                       "lights": n_lights, "mode": "precontract",
-                                       "precision": precision, "output": output,
-                                       "factor_texture_bytes": int(material.nbytes)},
-                            "project": {"source": "benchmarks/factor_precision.py draw_rows"},
-                            "llvmpipe_docs": None},
-                            # The timed draws' display output clips (see
-                            # export_xyz_twin): a coarse reference keeps the payload small.
-                            stride=max(ARGS.stride, 8) if timed else ARGS.check_stride)
-                log(f"  precision: {packs} packs, {n_lights} lights")
-        finally:
-            gpu.state.face_culling_set("NONE")
+    with _sphere_bench(bd) as bench:
+        for packs, n_lights in PRECISION_CASES:
+            lights = bd.make_lights(n_lights)
+            model = bd.synthetic_model("io_iso", packs)
+            exact_name = f"draw_io_iso_precontract_p{packs}_l{n_lights}"
+            for precision in ("exact", *FAST):
+                material = GPUMaterial(model, precision)
+                for output in ("DISPLAY", "XYZ"):
+                    key = material.key(lights, precontract=True, output=output)
+                    bind = material_binder(bench, material, key,
+                                           material.light_texture(lights, True))
+                    start = len(READS)
+                    bench.warm(bind)
+                    (read,) = reads_since(start)
+                    timed = output == "DISPLAY"
+                    base = exact_name if precision == "exact" else \
+                        f"{exact_name}_{precision}"
+                    name = base if timed else base.replace("draw_", "xyz_", 1)
+                    export_event(store, name, EVENTS[read["event"]], read["image"], {
+                        "family": "factor_packs", "group": "precision" if timed
+                        else "precision-xyz", **({} if timed else {"role": "check"}),
+                        "ratio_to": f"draw_baseline_l{n_lights}" if timed else None,
+                        "exact_twin": exact_name if timed else None,
+                        "params": {"layout": "io_iso", "packs": packs,
+                                   "lights": n_lights, "mode": "precontract",
+                                   "precision": precision, "output": output,
+                                   "factor_texture_bytes": int(material.nbytes)},
+                        "project": {"source": "benchmarks/factor_precision.py draw_rows"},
+                        "llvmpipe_docs": None},
+                        # The timed draws' display output clips (see
+                        # export_xyz_twin): a coarse reference keeps the payload small.
+                        stride=max(ARGS.stride, 8) if timed else ARGS.check_stride)
+            log(f"  precision: {packs} packs, {n_lights} lights")
 
 
 #: benchmarks/draw_variants.py's comparisons replayed: every factor-pack case; the XYZ
@@ -810,46 +819,35 @@ def export_variants(store: Store) -> None:
 
     from benchmarks.draw_variants import CASES, LABELS, binders
     from benchmarks.gpu_replay.variants_report import VARIANT_PREFIX, variant_stem
-    from spectral_materials.blender.gpu.offscreen import Target
 
-    arrays = bd.sphere_arrays()
-    batches = bd.mesh_batches.MeshBatches.build(arrays)
-    (batch,) = batches.batches.values()
-    vp = bd.view_projection(0.5 / bd.DISC_FRACTION)
-    size = ARGS.draw_size or 1200
-    with Target(size, size) as target:
-        gpu.state.face_culling_set("BACK")
-        try:
-            bench = bd.Bench(target, batch, vp, 1, 1)
-            sweep = [c for c in LIGHT_LOOP_SWEEP if c not in CASES]
-            for comparison, packs, n_lights in (*CASES, *sweep):
-                stem = variant_stem(comparison, packs, n_lights)
-                outputs = ("DISPLAY", "XYZ") if comparison in VARIANT_TWINS else ("DISPLAY",)
-                for output in outputs:
-                    pair = binders(bench, comparison, packs, n_lights, output=output)
-                    for side, bind, label in zip(("before", "after"), pair,
-                                                 LABELS[comparison]):
-                        start = len(READS)
-                        bench.warm(bind)
-                        (read,) = reads_since(start)
-                        timed = output == "DISPLAY"
-                        name = f"{stem}_{side}" if timed else \
-                            f"xyz_{stem[len(VARIANT_PREFIX):]}_{side}"
-                        export_event(store, name, EVENTS[read["event"]], read["image"], {
-                            "family": "variants", "group": "variants" if timed
-                            else "variants-xyz", **({} if timed else {"role": "check"}),
-                            "ratio_to": f"{stem}_before" if timed and side == "after"
-                            else None,
-                            "params": {"comparison": comparison, "side": side,
-                                       "label": label, "layout": "io_iso", "packs": packs,
-                                       "lights": n_lights, "mode": "precontract",
-                                       "output": output},
-                            "project": {"source": "benchmarks/draw_variants.py binders"},
-                            "llvmpipe_docs": None},
-                            stride=max(ARGS.stride, 8) if timed else ARGS.check_stride)
-                log(f"  variants: {comparison}, {packs} packs, {n_lights} lights")
-        finally:
-            gpu.state.face_culling_set("NONE")
+    with _sphere_bench(bd) as bench:
+        sweep = [c for c in LIGHT_LOOP_SWEEP if c not in CASES]
+        for comparison, packs, n_lights in (*CASES, *sweep):
+            stem = variant_stem(comparison, packs, n_lights)
+            outputs = ("DISPLAY", "XYZ") if comparison in VARIANT_TWINS else ("DISPLAY",)
+            for output in outputs:
+                pair = binders(bench, comparison, packs, n_lights, output=output)
+                for side, bind, label in zip(("before", "after"), pair,
+                                             LABELS[comparison]):
+                    start = len(READS)
+                    bench.warm(bind)
+                    (read,) = reads_since(start)
+                    timed = output == "DISPLAY"
+                    name = f"{stem}_{side}" if timed else \
+                        f"xyz_{stem[len(VARIANT_PREFIX):]}_{side}"
+                    export_event(store, name, EVENTS[read["event"]], read["image"], {
+                        "family": "variants", "group": "variants" if timed
+                        else "variants-xyz", **({} if timed else {"role": "check"}),
+                        "ratio_to": f"{stem}_before" if timed and side == "after"
+                        else None,
+                        "params": {"comparison": comparison, "side": side,
+                                   "label": label, "layout": "io_iso", "packs": packs,
+                                   "lights": n_lights, "mode": "precontract",
+                                   "output": output},
+                        "project": {"source": "benchmarks/draw_variants.py binders"},
+                        "llvmpipe_docs": None},
+                        stride=max(ARGS.stride, 8) if timed else ARGS.check_stride)
+            log(f"  variants: {comparison}, {packs} packs, {n_lights} lights")
 
 
 def export_btf(store: Store) -> None:

@@ -27,6 +27,7 @@ import numpy as np
 
 from benchmarks.draw_variants import CASES, LABELS
 
+from . import report
 from .run_gpu import BAD_REL, REL_FLOOR
 
 VARIANT_PREFIX = "variant_"
@@ -119,19 +120,12 @@ def draw_table(cases: dict, earlier: dict, label: str = "now") -> list[str]:
 
 
 def agreement_table(cases: dict) -> list[str]:
-    """The variants' XYZ twins against the project's llvmpipe read-back."""
-    lines = ["| twin | max rel | mean rel | pixels > 1e-3 | of those, unexplained | check |",
-             "|---|---|---|---|---|---|"]
-    for name, case in cases.items():
-        if case.get("group") != "variants-xyz" or "__" in name:
-            continue  # a patched copy (patch_cases.py) is drawn against the unpatched image
-        if not _timed(case):
-            continue
-        k = case["runs"]["blender"]["check"]
-        lines.append(f"| `{name}` | {k['max_rel']:.1e} | {k['mean_rel']:.1e} | "
-                     f"{k['pixels_rel_gt_1e-3']} | {k['pixels_rel_gt_1e-3_unexplained']} | "
-                     f"{k['status']} |")
-    return lines
+    """The variants' XYZ twins against the project's llvmpipe read-back (report.py's
+    table): a patched copy (``__`` in its name, patch_cases.py) is drawn against the
+    unpatched image, and left out."""
+    return report.agreement_table({
+        name: case for name, case in cases.items()
+        if case.get("group") == "variants-xyz" and "__" not in name and _timed(case)})
 
 
 def image_agreement(gpu: np.ndarray, reference: np.ndarray) -> dict:

@@ -299,6 +299,16 @@ def test_render_sphere_command_with_eevee(iso_model, tmp_path):
     assert channels["Y"].max() > 0.1
 
 
+def _two_suns(incidence: float, extra: tuple) -> list:
+    """The protocol's D65 sun at ``incidence`` and ``render_sphere_eevee``'s extra sun
+    (elevation°, azimuth°, illuminant), as the float64 evaluation's lights."""
+    alpha, phi = np.radians(extra[0]), np.radians(extra[1])
+    toward = np.array([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi),
+                       np.cos(alpha)])
+    return [shading.protocol_sun(incidence, "D65", WL),
+            replace(shading.protocol_sun(0.0, extra[2], WL), axis=tuple(-toward))]
+
+
 def test_two_spectral_lights_match_the_python_evaluation(clean_scene):
     """Both suns through the factor packs (and the lobe): EEVEE's sphere against the
     float64 evaluation of the same model under the two lights."""
@@ -308,11 +318,7 @@ def test_two_spectral_lights_match_the_python_evaluation(clean_scene):
                                                   spectral_lights=2)
     assert facts["lights"] == ["SM EEVEE sun", "SM EEVEE sun 2"]
     space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
-    lights = [shading.protocol_sun(30.0, "D65", WL)]
-    alpha, phi = np.radians(extra[0]), np.radians(extra[1])
-    toward = np.array([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi),
-                       np.cos(alpha)])
-    lights.append(replace(shading.protocol_sun(0.0, "FL2", WL), axis=tuple(-toward)))
+    lights = _two_suns(30.0, extra)
     points, mask = shading.sphere_pixels(64)
     reference = np.zeros((64, 64, 3))
     reference[mask] = shading.shade_xyz(model, points, points, np.zeros_like(points),
@@ -474,11 +480,7 @@ def test_each_lights_negative_xyz_is_clamped_as_the_mirror_clamps_it(clean_scene
     xyz, _ = eevee_render.render_sphere_eevee(model, 20.0, "D65", 64, extra_suns=(extra,),
                                               spectral_lights=2)
     space = "Linear Rec.2020" if compat.can_set_working_space() else "Linear Rec.709"
-    lights = [shading.protocol_sun(20.0, "D65", WL)]
-    alpha, phi = np.radians(extra[0]), np.radians(extra[1])
-    toward = np.array([np.sin(alpha) * np.cos(phi), np.sin(alpha) * np.sin(phi),
-                       np.cos(alpha)])
-    lights.append(replace(shading.protocol_sun(0.0, "FL2", WL), axis=tuple(-toward)))
+    lights = _two_suns(20.0, extra)
     points, mask = shading.sphere_pixels(64)
     per_light = [shading.shade_xyz(model, points, points, np.zeros_like(points),
                                    shading.View(), [light], two_sided=False)
