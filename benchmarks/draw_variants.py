@@ -7,8 +7,9 @@
   K = Sᵀ Ĩ, 3 vec4 per pack) read from the uniform buffer ``sm_lights`` against the same
   rows fetched from the light texture (glsl/common/light_rows.glsl). Two variants.
 * **Light loop** (issue 19): with several lights, packs outermost and the view's axes
-  (θo for io_iso) fetched once per pack for all lights, against the light-by-light loop
-  (the same variant with that branch compiled out, :func:`light_by_light_shader`).
+  (θo for io_iso) fetched once per pack for all lights (:func:`hoisted_shader`, whatever
+  ``shaders.shares_view_axes`` would choose), against the light-by-light loop (the same
+  variant with that branch compiled out, :func:`light_by_light_shader`).
 * **Specular lobe** (issue 18): the same packs with an analytic Ashikhmin–Shirley lobe
   beside them (``core/brdf/lobe.py``, ``glsl/brdf/specular_lobe.glsl``: closed-form ALU
   per light and two more light-row texels) against the packs alone.

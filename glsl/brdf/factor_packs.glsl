@@ -58,8 +58,9 @@ SmLookup sm_lookups(vec4 coords)
 }
 
 /* The 4 terms of pack `pack` over the axes in the bit mask `axes`:
- * Π_{k in axes} mix(A_k[i0], A_k[i1], w_k). With several lights, the view's axes
- * (SM_VIEW_AXES) once per pack and each light's own axes per light (surface_frag.glsl). */
+ * Π_{k in axes} mix(A_k[i0], A_k[i1], w_k). Where the lights share the view's axes
+ * (SM_SHARE_VIEW), those (SM_VIEW_AXES) once per pack and each light's own axes per
+ * light (surface_frag.glsl). */
 vec4 sm_pack_product_axes(SmLookup lookup, int pack, int axes)
 {
   vec4 product = vec4(1.0);

@@ -314,8 +314,8 @@ def _fitted_outputs(g: Graph, group, output, fit: dict, base: int) -> None:
 
 
 def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fit: dict, *,
-                use_uv_tangent: bool = False, name: str | None = None, shadows: bool = False,
-                to_rgb: np.ndarray | None = None):
+                to_rgb: np.ndarray, use_uv_tangent: bool = False, name: str | None = None,
+                shadows: bool = False):
     """(Re)write the node group ``name`` (default: the material's); returns it.
 
     ``lights``: the spectral lights, the key light first; each gets its own incidence,
@@ -323,8 +323,8 @@ def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fi
     (``core.prefilter.fit_principled``) feeds the Principled outputs. ``shadows``: each
     light's radiance times its EEVEE shadow, read through its twin lights
     (:mod:`.shadow_nodes`; the caller makes the twins). ``to_rgb``: the 3 × 3 the
-    lights' RGB weights were made with (``prefilter.scene_linear_matrix``); given, each
-    light's XYZ is clamped at 0, as ``FactoredBRDF.xyz`` and the GLSL clamp it. Raises
+    lights' RGB weights were made with (``prefilter.scene_linear_matrix``), through which
+    each light's XYZ is clamped at 0, as ``FactoredBRDF.xyz`` and the GLSL clamp it. Raises
     ValueError for what the EEVEE path cannot reconstruct.
     """
     parameterization = model.grid.parameterization.name
@@ -348,6 +348,7 @@ def build_group(material, model: FactoredBRDF, image, lights: list[KeyLight], fi
         label = "key light" if index == 0 else f"light {index + 1}"
         radiance = _light_radiance(g, model, image, light, frame, label, base, shadows,
                                    to_rgb)
+        g.frame = None  # the sum belongs to no light's frame
         total = radiance if total is None else g.vmath("ADD", total, radiance,
                                                        column=base + 34, label="Σ lights")
     g.begin("Other lights: Lambert + GGX fitted under their spectrum")

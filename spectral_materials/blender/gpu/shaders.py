@@ -39,10 +39,11 @@ FRAGMENT_LIBRARY = ("common/common.glsl", "brdf/parameterization.glsl", "brdf/ax
 #: a bound keeps compile time and frame time predictable.
 MAX_LIGHTS = 32
 
-#: Up to this many lights a variant can keep every light's lookups live and fetch the
-#: view's axes once per pack for all of them (``SM_VIEW_AXES``, glsl/brdf/surface_frag.glsl;
-#: whether it does is :func:`shares_view_axes`); beyond it, light by light, which keeps
-#: each pixel's live state small (16 values per light).
+#: Up to this many lights a variant carries the view's axes mask (``SM_VIEW_AXES``), so
+#: that its packs can run outermost (glsl/brdf/surface_frag.glsl; the benchmarks force
+#: that order to time it). Whether a variant does is :func:`shares_view_axes`, which
+#: takes it with at most :data:`SHARED_VIEW_RULE_LIGHTS`: each light costs 17 live values
+#: there (its lookups, weight and own sum).
 MAX_SHARED_VIEW_LIGHTS = 8
 
 #: Light rows go in a uniform buffer while they fit 16 KiB (1024 vec4), the size every
@@ -104,12 +105,12 @@ def shares_view_axes(parameterization: str, packs: int, lights: int) -> bool:
     fetches. On an NVIDIA H200 (docs/bench_gpu_variants.md, io_iso, 1.0 M pixels) it
     took 0.85× the light-by-light frame with 2 lights from 8 packs on (1.10× at 4), and
     with 4 lights 0.96× at 12 packs, 0.80× at 22 (1.19× at 8); with 8 lights it lost at
-    every pack count measured (1.07× at 22, 1.78× at 8). llvmpipe gains from fewer packs
-    (0.77× at 4 packs × 4 lights), but a viewport draws on a GPU. Measured on io_iso (one
-    view axis) alone, on one GPU: the rule between those counts, and for io and ea (whose
-    φo is shared too), is unmeasured.
+    every pack count measured (1.07× at 22, 1.78× at 8). llvmpipe gained from fewer packs
+    before the clamp (0.77× at 4 packs × 4 lights), but a viewport draws on a GPU.
+    Measured on io_iso (one view axis) alone, on one GPU: the rule between those counts,
+    and for io and ea (whose φo is shared too), is unmeasured.
     """
-    return (1 < lights <= min(SHARED_VIEW_RULE_LIGHTS, MAX_SHARED_VIEW_LIGHTS)
+    return (1 < lights <= SHARED_VIEW_RULE_LIGHTS
             and view_axes_mask(parameterization) != 0 and packs >= 2 * lights + 4)
 
 

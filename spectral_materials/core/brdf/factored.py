@@ -151,7 +151,8 @@ class FactoredBRDF:
         """``f·cosθi`` (N, L) at ``.wavelengths``; 0 below the horizon, clamped at 0.
 
         A sum of rank-one terms can dip slightly below zero where the BRDF is ~0;
-        a reflectance cannot, so spectra are clamped (``xyz`` is left linear).
+        a reflectance cannot, so spectra are clamped (``xyz`` clamps its XYZ instead,
+        as the shaders do).
         """
         values = self._to_wavelengths(self.coefficients(wi, wo))
         if not self.cosine_weighted:

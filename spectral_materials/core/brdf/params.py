@@ -134,8 +134,9 @@ class Parameterization:
     summary: str = ""
     #: ``inverse`` accepts directions with z >= -horizon_tolerance as above the horizon.
     horizon_tolerance: float = VALID_EPS
-    #: Axes whose coordinate depends on ``wo`` alone: a shader drawing several lights
-    #: fetches their factors once per pack, not once per light (glsl/brdf/surface_frag.glsl).
+    #: Axes whose coordinate depends on ``wo`` alone: a shader drawing 2–4 lights with
+    #: enough packs fetches their factors once per pack, not once per light
+    #: (glsl/brdf/surface_frag.glsl, blender/gpu/shaders.shares_view_axes).
     view_axes: tuple[int, ...] = ()
 
     @property

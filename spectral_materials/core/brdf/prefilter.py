@@ -83,8 +83,9 @@ def clamped_xyz(xyz: np.ndarray, to_rgb: np.ndarray) -> np.ndarray:
 
 def key_light_error(brdf, model: FactoredBRDF, light: SpectralLight, to_rgb: np.ndarray,
                     count: int = 4000) -> dict:
-    """ΔE94 of the key-light term as EEVEE shows it (the factors, then the clamp of negative
-    RGB) against the 5 nm reference under the light's SPD, at the protocol's random pairs."""
+    """ΔE94 of the key-light term as EEVEE shows it (the factors with their XYZ clamped at
+    0, then the clamp of negative RGB) against the 5 nm reference under the light's SPD,
+    at the protocol's random pairs."""
     wi, wo = metrics.random_direction_pairs(count)
     reference_spd = light.spd_on(spectra.WAVELENGTHS_REFERENCE)
     reference = metrics.reference_xyz(brdf, wi, wo, reference_spd)

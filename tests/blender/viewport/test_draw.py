@@ -126,7 +126,7 @@ FOUR_LIGHT_GRIDS = {"io": (12, 24, 12, 24), "io_iso": (12, 24, 12), "ea": (12, 1
                          ids=[*FOUR_LIGHT_GRIDS, "io_iso-2-packs", "io_iso-12-lights"])
 def test_every_light_type_in_a_scene(clean_scene, parameterization, copies, packs):
     """Four lights with 12 packs share the view's axes per pack (SM_SHARE_VIEW); with 2
-    packs, or twelve lights (more than shaders.MAX_SHARED_VIEW_LIGHTS), they go light by
+    packs, or twelve lights (more than shaders.SHARED_VIEW_RULE_LIGHTS), they go light by
     light. Each against the mirror."""
     bpy.data.objects.remove(bpy.data.objects["Cube"])
     bpy.data.objects.remove(bpy.data.objects["Light"])
@@ -191,7 +191,9 @@ def test_each_lights_negative_xyz_is_drawn_as_zero(clean_scene, packs):
     assert xyz[..., :3].min() >= 0.0
 
 
-def test_the_view_axes_are_shared_by_at_most_eight_lights():
+def test_the_view_axes_mask_is_carried_by_at_most_eight_lights():
+    """SM_VIEW_AXES (what the packs-outermost loop needs, and the benchmarks force) up to
+    MAX_SHARED_VIEW_LIGHTS; whether the loop is taken is shares_view_axes."""
     from spectral_materials.blender.gpu import shaders
 
     def mask(lights):
