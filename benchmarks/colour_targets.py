@@ -217,13 +217,8 @@ class Pairs:
         its dense grazing bands (see :func:`dense_stats`); ``clamped=False``: its XYZ
         without the clamp at 0 that issue 18 added (the state before it)."""
         def xyz(wi, wo, ill):
-            if clamped:
-                return model.xyz(wi, wo, ill)
             weights = colour_pipeline.xyz_weights(ill, model.wavelengths, model.basis)
-            coefficients = model.coefficients(wi, wo)
-            if not model.cosine_weighted:
-                coefficients = coefficients * np.clip(wi[:, 2:3], 0.0, None)
-            return coefficients @ weights
+            return model.reflected_xyz(wi, wo, weights, clamped=clamped)
 
         out = {}
         for ill in ILLUMINANTS:

@@ -375,7 +375,7 @@ def _clamped_in_xyz(g: Graph, rgb, to_rgb: np.ndarray, column: int, label: str):
 
 
 def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, label: str,
-                    base: int, shadowed: bool, to_rgb: np.ndarray | None = None):
+                    base: int, shadowed: bool, to_rgb: np.ndarray):
     """One spectral light's reflected radiance (scene-linear RGB), its frames labelled
     ``label``: incidence, coordinates, axis lookups, packs and the lobe; ``shadowed``:
     times its visibility through its twin lights (:mod:`.shadow_nodes`)."""
@@ -415,9 +415,8 @@ def _light_radiance(g: Graph, model: FactoredBRDF, image, key: KeyLight, frame, 
         radiance = g.vmath("ADD", radiance, g.vmath("SCALE", lobe, scale=lit_scale,
                                                     column=base + 11),
                            column=base + 11, label=f"{label} with lobe")
-    if to_rgb is not None:
-        g.begin(f"{label}: {CLAMP_FRAME}")
-        radiance = _clamped_in_xyz(g, radiance, to_rgb, base + 19, f"{label}, XYZ ≥ 0")
+    g.begin(f"{label}: {CLAMP_FRAME}")
+    radiance = _clamped_in_xyz(g, radiance, to_rgb, base + 19, f"{label}, XYZ ≥ 0")
     if shadowed:
         visibility = light_visibility(g, wi_world, frame[0].outputs["Incoming"], base + 12,
                                       label)

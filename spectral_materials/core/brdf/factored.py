@@ -178,15 +178,26 @@ class FactoredBRDF:
         Normalised as shared/PROTOCOL.md says (white Lambertian at normal
         incidence → Y = 1). With a basis this is the paper's coefficient dot
         product ``Σ_j R̃_j Ĩ_j``; otherwise a Riemann sum over ``.wavelengths``.
-        Clamped at 0 per component, as the shaders clamp each light's XYZ: no
-        reflection has a negative tristimulus value, yet the packs' signed rest can
-        dip below 0 beside a black reference near the horizon.
+        Clamped at 0 per component (:meth:`reflected_xyz`).
         """
-        weights = colour_pipeline.xyz_weights(illuminant, self.wavelengths, self.basis)
+        return self.reflected_xyz(
+            wi, wo, colour_pipeline.xyz_weights(illuminant, self.wavelengths, self.basis))
+
+    def reflected_xyz(self, wi: np.ndarray, wo: np.ndarray, weights: np.ndarray, *,
+                      clamped: bool = True) -> np.ndarray:
+        """XYZ (N, 3) per unit irradiance under a light whose XYZ weights on the model's
+        spectral axis are ``weights`` (S, 3): ``f·cosθi`` contracted with them.
+
+        Clamped at 0 per component, as the shaders clamp each light's XYZ: no reflection
+        has a negative tristimulus value, yet the packs' signed rest can dip below 0
+        beside a black reference near the horizon. ``clamped=False``: as drawn before
+        issue 18 (the benchmarks' earlier stage).
+        """
         coeffs = self.coefficients(wi, wo)
         if not self.cosine_weighted:
             coeffs = coeffs * np.clip(np.asarray(wi)[:, 2:3], 0.0, None)
-        return np.maximum(coeffs @ weights, 0.0)
+        xyz = coeffs @ weights
+        return np.maximum(xyz, 0.0) if clamped else xyz
 
     # ---------------------------------------------------------------- packs
 

@@ -191,11 +191,7 @@ def shade_xyz(model: FactoredBRDF, points: np.ndarray, normals: np.ndarray,
     shader does.
     """
     def reflect(wi, wo, light):
-        reflected = model.coefficients(wi, wo)
-        if not model.cosine_weighted:
-            reflected = reflected * wi[:, 2:3]
-        # Each light's XYZ clamped at 0, as FactoredBRDF.xyz and the shaders clamp it.
-        return np.maximum(reflected @ light.weights(model.wavelengths, model.basis), 0.0)
+        return model.reflected_xyz(wi, wo, light.weights(model.wavelengths, model.basis))
 
     return _shade(points, normals, tangents, view, lights, reflect, two_sided)
 
