@@ -263,8 +263,21 @@ def dense_stats(de_by_band: dict) -> dict:
                   "se": float(de.std(ddof=1) / np.sqrt(de.size)),
                   "p95": float(np.percentile(de, 95)), "max": float(de.max())}
                  for (s, (lo, hi)), de in de_by_band.items() if s == side]
-        out[side] = {"bands": bands, "falls": falls_to_90(bands)}
+        out[side] = {"bands": bands, "falls": falls_to_90(bands),
+                     "no_blow_up": no_blow_up(bands)}
     return out
+
+
+def no_blow_up(bands: list[dict]) -> bool:
+    """The issue's "no blow-up beyond 89.5°", read with the dense bands' noise: each band
+    beyond 89.5° keeps its max within the goal's bound below 89.5° (:data:`GOALS`
+    ``max_below``), and its mean is no larger than 89–89.5°'s by more than two combined
+    standard errors (:func:`falls_to_90` asks for no larger at all, which two bands of one
+    flat error fail half the time)."""
+    last = next(b for b in bands if b["to"] == GRAZING_DEG)
+    return all(b["max"] <= GOALS["max_below"]
+               and b["mean"] <= last["mean"] + 2.0 * np.hypot(b["se"], last["se"])
+               for b in bands if b["from"] >= GRAZING_DEG)
 
 
 def error_stats(de: np.ndarray, angle: np.ndarray, incidence: np.ndarray) -> dict:

@@ -14,6 +14,15 @@ def _band_label(band: dict) -> str:
     return f"<{hi:g}°" if lo == 0 else (f">{lo:g}°" if hi == 90 else f"{lo:g}–{hi:g}°")
 
 
+def lobe_label(lobe: dict | None) -> str:
+    """"–", "ON" (Oren–Nayar's back-scatter term) or "AS nu/nv" (Ashikhmin–Shirley)."""
+    if lobe is None:
+        return "–"
+    if lobe["family"] == "oren_nayar":
+        return "ON"
+    return f"AS {lobe['nu']:.4g}/{lobe['nv']:.4g}"
+
+
 def main_table(result: dict, label: str = "after") -> list[str]:
     """The issue's table: one line per case, settings and illuminant."""
     grazing_deg = result["grazing_deg"]
@@ -24,7 +33,7 @@ def main_table(result: dict, label: str = "after") -> list[str]:
     for row in result["rows"]:
         r = row[label]
         grid = f"{r['parameterization']} {'×'.join(map(str, r['resolution']))}"
-        lobe = "–" if r["lobe"] is None else f"AS {r['lobe']['nu']:.4g}/{r['lobe']['nv']:.4g}"
+        lobe = lobe_label(r["lobe"])
         for ill, e in r["errors"].items():
             g = e["goals"]
             lines.append(
@@ -88,7 +97,7 @@ def lobe_table(result: dict) -> list[str]:
     for row in result["rows"]:
         r = row["after"]
         rep = r["lobe_report"]
-        lobe = "–" if r["lobe"] is None else f"AS {r['lobe']['nu']:.4g}/{r['lobe']['nv']:.4g}"
+        lobe = lobe_label(r["lobe"])
         aniso = rep.get("residual_anisotropy")
         lines.append(f"| {row['case']} | {row['settings']} | {rep.get('lobe_fit_gain', 0):.1f} "
                      f"| {_yes(bool(rep.get('lobe_kept')))} | {lobe} | "
@@ -156,14 +165,17 @@ def dense_table(result: dict, key: str = "after") -> list[str]:
     heads = [f"{side} {_band_label(b)}" for side in ("incidence", "view")
              for b in first[side]["bands"]]
     lines = ["| case | settings | light | " + " | ".join(heads)
-             + " | falls (θi) | falls (θo) |", "|---|---|---|" + "---|" * (len(heads) + 2)]
+             + " | falls (θi) | falls (θo) | no blow-up (θi) | no blow-up (θo) |",
+             "|---|---|---|" + "---|" * (len(heads) + 4)]
     for r in result["rows"]:
         for ill, e in r[key]["errors"].items():
             d = e["dense"]
             cells = [f"{b['mean']:.3f} ± {2 * b['se']:.3f} / {b['max']:.2f}"
                      for side in ("incidence", "view") for b in d[side]["bands"]]
+            verdicts = [_yes(d[side][test]) for test in ("falls", "no_blow_up")
+                        for side in ("incidence", "view")]
             lines.append(f"| {r['case']} | {r['settings']} | {ill} | " + " | ".join(cells)
-                         + f" | {_yes(d['incidence']['falls'])} | {_yes(d['view']['falls'])} |")
+                         + " | " + " | ".join(verdicts) + " |")
     return lines
 
 
@@ -254,8 +266,14 @@ def markdown(result: dict) -> list[str]:
         f"{result.get('dense_pairs', 0):,} seeded pairs per side, uniform in solid angle given "
         "that the grazing angle (θi for *incidence*, θo for *view*) lies in the band: mean "
         "± 2 standard errors / max ΔE94, the add-on now. *falls*: each band beyond 89.5° has "
-        "a mean and a max no larger than 89–89.5°'s.", "",
+        "a mean and a max no larger than 89–89.5°'s. *no blow-up*: each band beyond 89.5° "
+        "has a max within the goal's 5 and a mean no larger than 89–89.5°'s by more than "
+        "two combined standard errors (a flat error passes it, and fails *falls* about "
+        "half the time).", "",
         *dense_table(result), "",
+        "Before (packs alone at the θ cells asked for, horizon edge rule, each light's XYZ "
+        "≥ 0):", "",
+        *dense_table(result, "before"), "",
         "MERL round trip (s): " + ", ".join(f"{k} {v:.2f}"
                                            for k, v in result["merl_timings"].items()), ""]
 

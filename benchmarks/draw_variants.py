@@ -63,12 +63,14 @@ CASES = (("edge rule", 4, 1), ("edge rule", 22, 1),
          ("light rows", 4, 1), ("light rows", 22, 1), ("light rows", 4, 4),
          ("light loop", 4, 4), ("light loop", 22, 4), ("light loop", 4, 8),
          ("specular lobe", 4, 1), ("specular lobe", 4, 4),
+         ("Oren–Nayar term", 4, 1), ("Oren–Nayar term", 4, 4),
          ("measured cells", 4, 1), ("measured cells", 4, 4))
 #: BTF cases: (comparison, reflectance-field kind, lights), on their own target.
 BTF_CASES = (("texel blend", "RFP", 1), ("texel blend", "RFNL", 1), ("texel blend", "RFNL", 4))
 LABELS = {"edge rule": ("linear", "horizon"), "light rows": ("texture", "uniform buffer"),
           "light loop": ("light by light", "view axes once per pack"),
           "specular lobe": ("packs alone", "packs + lobe"),
+          "Oren–Nayar term": ("packs alone", "packs + Oren–Nayar term"),
           "measured cells": ("packs + lobe, smooth", "packs + lobe in MERL cells"),
           "texel blend": ("nearest texel", "blended edges")}
 #: The branch of glsl/brdf/surface_frag.glsl that draws every light per pack, up to
@@ -124,11 +126,12 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int,
             key = material.key(lights, precontract=True, output=output)
             out.append(material_binder(bench, material, key, material.light_texture(lights, True)))
         return out
-    if comparison in ("specular lobe", "measured cells"):
-        lobe = benchmark_lobe(model.spectral_size)
-        variants = ([replace(model, lobe=None), replace(model, lobe=lobe)]
-                    if comparison == "specular lobe" else
-                    [replace(model, lobe=lobe), replace(model, lobe=lobe, cells=MERL_SHAPE)])
+    if comparison in ("specular lobe", "Oren–Nayar term", "measured cells"):
+        lobe = benchmark_lobe(model.spectral_size, "oren_nayar" if comparison.startswith(
+            "Oren") else "ashikhmin_shirley")
+        variants = ([replace(model, lobe=lobe), replace(model, lobe=lobe, cells=MERL_SHAPE)]
+                    if comparison == "measured cells" else
+                    [replace(model, lobe=None), replace(model, lobe=lobe)])
         out = []
         for variant in variants:
             material = GPUMaterial(variant)
@@ -148,12 +151,15 @@ def binders(bench: Bench, comparison: str, packs: int, n_lights: int,
             material_binder(bench, material, key, material.light_texture(lights, True)))
 
 
-def benchmark_lobe(spectral_size: int) -> SpecularLobe:
-    """An Orange-gloss-like lobe (nu = nv = 32) with positive spectra: the cost does not
-    depend on the values."""
+def benchmark_lobe(spectral_size: int, family: str = "ashikhmin_shirley") -> SpecularLobe:
+    """An Orange-gloss-like lobe (nu = nv = 32), or a Red-clay-like Oren–Nayar term, with
+    positive spectra: the cost does not depend on the values."""
     spectral = np.full((spectral_size, 2), 0.05, dtype=np.float32)
+    if family == "oren_nayar":
+        spectral[:, 1] = 0.0
+        return SpecularLobe(family, 0.0, 0.0, spectral)
     spectral[:, 1] = 1.0
-    return SpecularLobe("ashikhmin_shirley", 32.0, 32.0, spectral)
+    return SpecularLobe(family, 32.0, 32.0, spectral)
 
 
 def btf_binders(fits: dict, data, kind: str, n_lights: int, vp):
@@ -238,9 +244,11 @@ def markdown(results: dict) -> list[str]:
              "`sm_lights` against the light texture (issue 19). *Light loop*: with several "
              "lights, packs outermost and θo's factors fetched once per pack for all lights, "
              "against the light-by-light loop (issue 19). *Specular lobe*: the same packs "
-             "with an analytic Ashikhmin–Shirley lobe beside them (issue 18). *Measured cells*: "
+             "with an analytic Ashikhmin–Shirley lobe beside them (issue 18). *Oren–Nayar "
+             "term*: the same packs with Oren–Nayar's back-scatter term beside them, the "
+             "lobe family rough diffuse materials take (issue 18). *Measured cells*: "
              "packs and lobe drawn in MERL's 90×90×180 cells against the same drawn smooth "
-             "(issue 18). These five: "
+             "(issue 18). These six: "
              "io_iso 90×180×90, "
              "pre-contracted, synthetic packs, on the draw benchmark's sphere. *Texel "
              "blend*: BTF texels blended within 1/16 texel of their edges against nearest "

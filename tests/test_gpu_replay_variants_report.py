@@ -13,6 +13,9 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 GPU = DOCS / "gpu"
 RESULTS = GPU / "h200_variants_results.json"
 _ms = variants_report._ms
+#: Comparisons added to benchmarks/draw_variants.py after the committed replay: the page
+#: leaves them out until a GPU replays them.
+NOT_REPLAYED = {"Oren–Nayar term"}
 
 
 def _cases() -> dict:
@@ -27,6 +30,10 @@ def test_every_comparison_is_stated_with_the_replays_and_llvmpipes_ratios():
     lines = variants_report.variant_table(cases, llvmpipe)
     for comparison, packs, lights in variants_report.CASES:
         stem = variants_report.variant_stem(comparison, packs, lights)
+        if comparison in NOT_REPLAYED:
+            assert f"{stem}_before" not in cases
+            assert not any(line.startswith(f"| {comparison} |") for line in lines)
+            continue
         before, after = _ms(cases[f"{stem}_before"]), _ms(cases[f"{stem}_after"])
         row = [line for line in lines if line.startswith(f"| {comparison} | {packs} | {lights} |")]
         assert len(row) == 1, (comparison, packs, lights)

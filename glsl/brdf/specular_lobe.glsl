@@ -1,10 +1,19 @@
-/* Mirror: spectral_materials.core.brdf.lobe.lobe_terms, spectral_materials.core.brdf.shading.light_texels */
-/* The analytic specular lobe beside the factor packs (core/brdf/lobe.py): Ashikhmin–
- * Shirley's specular term with two free Schlick spectra. sm.lobe holds the exponents
- * (nu, nv); each light's row holds, from texel SM_LOBE_TEXEL, the XYZ weights of the
- * lobe's two spectra under that light (c₀ᵀĨ, c₁ᵀĨ). Called for lit pairs only. */
+/* Mirror: spectral_materials.core.brdf.lobe.family_terms, spectral_materials.core.brdf.shading.light_texels */
+/* The analytic lobe beside the factor packs (core/brdf/lobe.py), of the family
+ * SM_LOBE_FAMILY (lobe.LOBE_FAMILIES' index + 1): 1, Ashikhmin–Shirley's specular term
+ * with two free Schlick spectra, sm.lobe holding the exponents (nu, nv); 2, Oren–Nayar's
+ * back-scatter term with one free spectrum (no exponents). Each light's row holds, from
+ * texel SM_LOBE_TEXEL, the XYZ weights of the lobe's two spectra under that light
+ * (c₀ᵀĨ, c₁ᵀĨ). Called for lit pairs only. */
 
 #if SM_LOBE_TEXEL > 0
+#  if SM_LOBE_FAMILY == 2
+vec2 sm_lobe_terms(vec3 wi, vec3 wo)
+{
+  float projected = max(wi.x * wo.x + wi.y * wo.y, 0.0);
+  return vec2(projected / max(max(wi.z, wo.z), SM_LOBE_DENOMINATOR_FLOOR), 0.0);
+}
+#  else
 vec2 sm_lobe_terms(vec3 wi, vec3 wo)
 {
   vec3 v = wi + wo;
@@ -21,6 +30,7 @@ vec2 sm_lobe_terms(vec3 wi, vec3 wo)
   float s = c * c * c * c * c;
   return vec2(a * (1.0 - s), a * s);
 }
+#  endif
 
 /* XYZ reflected toward wo per unit irradiance from wi (f_lobe · cosθi). */
 vec3 sm_lobe_xyz(vec3 wi, vec3 wo, int light)

@@ -182,9 +182,9 @@ def _add_factoring_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--pack-size", type=int_in(1, 64), default=4, metavar="N",
                    help="terms per pack (default 4 = one RGBA texel)")
     g.add_argument("--lobe", choices=("off", *LOBE_FAMILIES), default="off",
-                   help="fit an analytic specular lobe and factor the rest beside it "
-                        "(core/brdf/lobe.py); the add-on's Automatic keeps it only where it "
-                        "measures better")
+                   help="fit an analytic lobe (a specular highlight, or Oren-Nayar's "
+                        "back-scatter) and factor the rest beside it (core/brdf/lobe.py); "
+                        "the add-on's Automatic keeps it only where it measures better")
     g.add_argument("--method", choices=("joint", "greedy", "svd", "nd"), default="joint",
                    help="default joint")
     g.add_argument("--seed", type=int, default=0)

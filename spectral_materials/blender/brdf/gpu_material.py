@@ -18,6 +18,7 @@ import numpy as np
 from ...core.brdf.axes import EDGE_RULES, holds_horizon
 from ...core.brdf.factored import FactoredBRDF
 from ...core.brdf.filtered_factors import drawn_model
+from ...core.brdf.lobe import family_code
 from ...core.brdf.shading import LOBE_TEXELS, light_row_texels, light_texels, lobe_texel
 from ...core.lights import SpectralLight
 from ..gpu.display import DisplaySettings, display_matrices, std140_mat4
@@ -122,6 +123,7 @@ class GPUMaterial:
                          light_stride=self.light_stride(lights, precontract),
                          factors=self.precision,
                          lobe_texel=lobe_texel(self.model, precontract),
+                         lobe_family=1 if model.lobe is None else family_code(model.lobe.family),
                          cells=tuple(model.cells or ()))
 
     def light_texture(self, lights: list[SpectralLight], precontract: bool, lights_key=None):

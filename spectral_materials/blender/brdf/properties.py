@@ -48,11 +48,14 @@ PARAMETERIZATION_ITEMS = [
 ]
 #: The specular lobe settings (core/brdf/job.py LOBE_SETTINGS), identifiers upper-cased.
 LOBE_ITEMS = [
-    ("AUTO", "Automatic", "Fit an Ashikhmin–Shirley lobe; keep it where the material has a "
-                          "lobe of that shape and the packs measure better with it"),
+    ("AUTO", "Automatic", "Fit each lobe family; keep the one that explains the material "
+                          "best where the material has a lobe of that shape and the packs "
+                          "measure better with it"),
     ("OFF", "Off", "Factor packs alone"),
     ("ASHIKHMIN_SHIRLEY", "Ashikhmin–Shirley", "Always fit and keep an Ashikhmin–Shirley "
-                                               "lobe with free Fresnel spectra"),
+                                               "specular lobe with free Fresnel spectra"),
+    ("OREN_NAYAR", "Oren–Nayar", "Always fit and keep Oren–Nayar's back-scatter term (a "
+                                 "rough surface's ridge at grazing) with a free spectrum"),
 ]
 #: Whether a measured table's model is drawn in its cells (core/brdf/job.py CELL_SETTINGS).
 CELL_ITEMS = [
@@ -84,7 +87,7 @@ class SPECTRAL_PG_result(bpy.types.PropertyGroup):
     cosine_weighted: BoolProperty(name="Cosine weighted",
                                   description="The factors hold f·cosθi rather than f")
     edge: StringProperty(name="Edge rule", description="θ-end rule of the lookups")
-    lobe: StringProperty(name="Specular lobe",
+    lobe: StringProperty(name="Analytic lobe",
                          description="The analytic lobe's family, empty when there is none "
                                      "(its exponents and spectra are ID properties)")
     de94_mean: FloatProperty(name="Mean ΔE94", precision=3,
@@ -189,9 +192,10 @@ class SPECTRAL_PG_material(bpy.types.PropertyGroup):
     smoothing: IntProperty(name="Smoothing", default=0, soft_min=0, soft_max=9,
                            description="Moving-average width on the angular factors; 0 = off")
     specular_lobe: EnumProperty(
-        name="Specular lobe", items=LOBE_ITEMS, default="AUTO",
-        description="An analytic specular lobe evaluated beside the factor packs, which "
-                    "then hold only the rest: glossy highlights stay sharp at every angle")
+        name="Analytic lobe", items=LOBE_ITEMS, default="AUTO",
+        description="An analytic lobe evaluated beside the factor packs, which then hold "
+                    "only the rest: glossy highlights and a rough surface's grazing "
+                    "back-scatter stay sharp at every angle")
     measured_cells: EnumProperty(
         name="Measured cells", items=CELL_ITEMS, default="AUTO",
         description="For a measured file: whether the viewport draws it in the file's own "

@@ -1,5 +1,6 @@
 """The EEVEE node group's *Specular lobe* frame: a material's analytic lobe
-(``core.brdf.lobe``) for the key light, in nodes, as ``glsl/brdf/specular_lobe.glsl``.
+(``core.brdf.lobe``, either family) for one light, in nodes, as
+``glsl/brdf/specular_lobe.glsl``.
 
 ``g`` is the group's ``nodes.Graph`` (passed in, not imported: ``nodes`` imports this).
 """
@@ -15,8 +16,10 @@ from ...core.brdf.lobe import DENOMINATOR_FLOOR
 
 
 def lobe_rgb(g, model: FactoredBRDF, wi, wo, weights: np.ndarray, base: int):
-    """The analytic lobe's f·cosθi in key-light RGB per unit irradiance (mirrors
+    """The analytic lobe's f·cosθi in the light's RGB per unit irradiance (mirrors
     ``glsl/brdf/specular_lobe.glsl``; the lit test is the caller's)."""
+    if model.lobe.family == "oren_nayar":
+        return _oren_nayar_rgb(g, wi, wo, weights, base)
     nu, nv = float(model.lobe.nu), float(model.lobe.nv)
     v = g.vmath("ADD", wi, wo, column=base)
     length = g.vmath("LENGTH", v, column=base + 1, label="|wi + wo|")
@@ -47,3 +50,19 @@ def lobe_rgb(g, model: FactoredBRDF, wi, wo, weights: np.ndarray, base: int):
     return g.vmath("ADD", g.vmath("SCALE", tuple(weights[0]), scale=normal, column=base + 12),
                    g.vmath("SCALE", tuple(weights[1]), scale=grazing, column=base + 12),
                    column=base + 13, label="lobe")
+
+
+def _oren_nayar_rgb(g, wi, wo, weights: np.ndarray, base: int):
+    """Oren–Nayar's back-scatter term ``max(0, xi·xo + yi·yo) / max(cosθi, cosθo)`` times
+    cosθi and its one spectrum's RGB weights (``lobe.oren_nayar_terms``)."""
+    wi_x, wi_y, wi_z = g.separate(wi, column=base)
+    wo_x, wo_y, wo_z = g.separate(wo, column=base)
+    projected = g.math("MULTIPLY_ADD", wi_y, wo_y, g.math("MULTIPLY", wi_x, wo_x,
+                                                         column=base + 1), column=base + 2)
+    nearer_normal = g.math("MAXIMUM", g.math("MAXIMUM", wi_z, wo_z, column=base + 1),
+                           DENOMINATOR_FLOOR, column=base + 2)
+    a = g.math("DIVIDE", g.math("MAXIMUM", projected, 0.0, column=base + 3), nearer_normal,
+               column=base + 4, label="Oren–Nayar sin α tan β cos Δφ")
+    a_cos = g.math("MULTIPLY", a, wi_z, column=base + 5, label="a · cosθi")
+    return g.vmath("SCALE", tuple(weights[0]), scale=a_cos, column=base + 6,
+                   label="lobe")

@@ -155,6 +155,8 @@ class ShaderKey:
     #: Light-row texel of an analytic lobe's two weights (glsl/brdf/specular_lobe.glsl);
     #: 0: the model has no lobe.
     lobe_texel: int = 0
+    #: The lobe's family, ``core.brdf.lobe.family_code`` (1: Ashikhmin–Shirley).
+    lobe_family: int = 1
     #: (θh, θd, φd) cells of the measured table the model is drawn in
     #: (glsl/brdf/measured_cells.glsl); (): drawn smooth.
     cells: tuple = ()
@@ -178,6 +180,7 @@ class ShaderKey:
             **output_defines(SURFACE_REQUESTS[self.output]),
             **factor_defines(self.factors),
             "SM_LOBE_TEXEL": str(self.lobe_texel),
+            "SM_LOBE_FAMILY": str(self.lobe_family),
             "SM_LOBE_DENOMINATOR_FLOOR": f"{DENOMINATOR_FLOOR:.9g}",
             **cell_defines(self.cells),
         }

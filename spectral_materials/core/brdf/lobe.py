@@ -21,8 +21,17 @@ variable projection (:func:`fit_lobe`): for given exponents the spectra (and a s
 stand-in for the diffuse layer, discarded afterwards) are a linear least-squares
 solution, so only the exponents are searched.
 
+A rough diffuse surface has a ridge of its own: Oren–Nayar's back-scatter term
+``B·max(0, cos(φi − φo))·sin α·tan β`` grows without bound as both directions near the
+horizon in one azimuth, and ``f·cosθi`` there depends on ``cosθi / cosθo``, which no
+table of θ cells follows into the corner (ΔE94 8–16 at 89.5–90° in 4,000 dense pairs:
+docs/bench_colour_targets.md). The family ``oren_nayar`` draws that term in closed form,
+``a = max(0, xi·xo + yi·yo) / max(cosθi, cosθo)`` with one free spectrum ``c₀ = ρ·B/π``
+(its second term is 0 and it has no shape parameters); the packs keep ``ρ·A/π``, which
+is smooth. The spectrum is a linear least-squares solution, as the Schlick spectra are.
+
 The GLSL (``glsl/brdf/specular_lobe.glsl``) and the EEVEE node group evaluate
-:meth:`SpecularLobe.angular` with the same clamps.
+:meth:`SpecularLobe.angular` with the same clamps, for either family.
 
 References
 ----------
@@ -30,6 +39,8 @@ Ashikhmin, M., Shirley, P. (2000). An anisotropic Phong BRDF model. Journal of
 Graphics Tools 5(2), 25–32.
 Schlick, C. (1994). An inexpensive BRDF model for physically-based rendering.
 Computer Graphics Forum 13(3), 233–246.
+Oren, M., Nayar, S. K. (1994). Generalization of Lambert's reflectance model.
+Proceedings of SIGGRAPH '94, 239–246.
 Golub, G., Pereyra, V. (2003). Separable nonlinear least squares: the variable
 projection method and its applications. Inverse Problems 19(2), R1–R26.
 """
@@ -47,8 +58,12 @@ from ..progress import ProgressCallback, report
 from . import measured_cells
 from .metrics import uniform_hemisphere
 
-#: Lobe families a model can carry (GLSL ``SM_LOBE_*`` codes are their indices + 1).
-LOBE_FAMILIES = ("ashikhmin_shirley",)
+#: Lobe families a model can carry (GLSL ``SM_LOBE_FAMILY`` is the index + 1).
+LOBE_FAMILIES = ("ashikhmin_shirley", "oren_nayar")
+#: Families whose terms have no shape parameters: their ``nu``, ``nv`` are stored as 0.
+FAMILIES_WITHOUT_EXPONENTS = ("oren_nayar",)
+#: How many of a family's two terms are not 0 everywhere (the other's spectrum is 0).
+FAMILY_TERMS = {"ashikhmin_shirley": 2, "oren_nayar": 1}
 #: Exponent range searched and accepted (a Phong exponent of 1e4 is a lobe of ~0.6°).
 EXPONENT_RANGE = (0.5, 1.0e4)
 #: Floor of the lobe's denominator (h·k)·max(cosθi, cosθo); shared with the GLSL. Only
@@ -56,6 +71,11 @@ EXPONENT_RANGE = (0.5, 1.0e4)
 DENOMINATOR_FLOOR = 1e-8
 #: The fit's smooth stand-in for everything but the lobe: cosθi·cosθi^a·cosθo^b.
 SMOOTH_DEGREE = 2
+#: Residuals below this fraction of the data's RMS count as this in ``LobeFit.gain``. At
+#: 1 % an Oren–Nayar material of σ = 0.1, whose smooth stand-in leaves 1.5 % and whose
+#: own term leaves 1e-15, gained only 1.5, and its grazing corner (where the term
+#: outgrows everything, whatever σ) was left to the packs.
+GAIN_FLOOR = 1e-3
 FIT_PAIRS = 8000
 FIT_SEED = 20181  # not the protocol's seed: the fit never sees the pairs it is measured at
 
@@ -69,7 +89,8 @@ class SpecularLobe:
     family : str
         One of :data:`LOBE_FAMILIES`.
     nu, nv : float
-        Phong exponents along the tangent and the bitangent.
+        Phong exponents along the tangent and the bitangent (Ashikhmin–Shirley); 0 for a
+        family without shape parameters (:data:`FAMILIES_WITHOUT_EXPONENTS`).
     spectral : ndarray (S, 2)
         ``c₀`` and ``c₁`` on the model's spectral axis (wavelength samples or basis
         coefficients), float32 as stored.
@@ -87,7 +108,11 @@ class SpecularLobe:
         lo, hi = EXPONENT_RANGE
         for name in ("nu", "nv"):
             value = getattr(self, name)
-            if not (np.isfinite(value) and lo <= value <= hi):
+            if self.family in FAMILIES_WITHOUT_EXPONENTS:
+                if value != 0.0:
+                    raise ValueError(f"an {self.family} lobe has no exponents; {name} = "
+                                     f"{value}, not 0")
+            elif not (np.isfinite(value) and lo <= value <= hi):
                 raise ValueError(f"lobe exponent {name} = {value} is outside [{lo}, {hi}]")
         spectral = np.asarray(self.spectral)
         if spectral.ndim != 2 or spectral.shape[1] != 2:
@@ -101,8 +126,9 @@ class SpecularLobe:
         return int(np.asarray(self.spectral).size * 4 + 8)
 
     def angular(self, wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
-        """(N, 2): ``a·(1 − s)`` and ``a·s`` at unit direction pairs (the BRDF, no cosine)."""
-        return lobe_terms(wi, wo, self.nu, self.nv)
+        """(N, 2): the family's two terms at unit direction pairs (the BRDF, no cosine):
+        ``a·(1 − s)`` and ``a·s`` (Ashikhmin–Shirley), ``a`` and 0 (Oren–Nayar)."""
+        return family_terms(self.family, wi, wo, self.nu, self.nv)
 
     def coefficients(self, wi: np.ndarray, wo: np.ndarray, cosine_weighted: bool
                      ) -> np.ndarray:
@@ -122,20 +148,57 @@ class SpecularLobe:
         return spectral if basis is None else np.asarray(basis, np.float64) @ spectral
 
 
+def family_code(family: str) -> int:
+    """The GLSL's ``SM_LOBE_FAMILY`` for ``family`` (its index in :data:`LOBE_FAMILIES`
+    + 1)."""
+    return LOBE_FAMILIES.index(family) + 1
+
+
+def family_terms(family: str, wi: np.ndarray, wo: np.ndarray, nu: float, nv: float
+                 ) -> np.ndarray:
+    """The two angular terms (N, 2) of ``family``'s lobe (exponents ignored where it has
+    none)."""
+    if family == "oren_nayar":
+        return oren_nayar_terms(wi, wo)
+    return lobe_terms(wi, wo, nu, nv)
+
+
+def _lit_pairs(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(wi, wo, lit): float64 (N, 3) with non-finite pairs zeroed, and the pairs with both
+    directions above the horizon."""
+    wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
+    wo = np.asarray(wo, dtype=np.float64).reshape(-1, 3)
+    finite = np.isfinite(wi).all(axis=1) & np.isfinite(wo).all(axis=1)
+    wi = np.where(finite[:, None], wi, 0.0)
+    wo = np.where(finite[:, None], wo, 0.0)
+    return wi, wo, finite & (wi[:, 2] > 0) & (wo[:, 2] > 0)
+
+
+def oren_nayar_terms(wi: np.ndarray, wo: np.ndarray) -> np.ndarray:
+    """Oren–Nayar's back-scatter term ``max(0, cos(φi − φo))·sin α·tan β`` and 0 (N, 2).
+
+    Written without angles, as core/brdf/models.py's ``OrenNayar`` does:
+    ``max(0, xi·xo + yi·yo) / max(cosθi, cosθo)``. The denominator's floor is
+    :data:`DENOMINATOR_FLOOR`, as the specular lobe's; pairs at or below the horizon, or
+    non-finite, give 0.
+    """
+    wi, wo, lit = _lit_pairs(wi, wo)
+    projected = np.maximum(wi[:, 0] * wo[:, 0] + wi[:, 1] * wo[:, 1], 0.0)
+    nearer_normal = np.maximum(np.maximum(wi[:, 2], wo[:, 2]), DENOMINATOR_FLOOR)
+    a = np.where(lit, projected / nearer_normal, 0.0)
+    return np.stack([a, np.zeros_like(a)], axis=-1)
+
+
 def lobe_terms(wi: np.ndarray, wo: np.ndarray, nu: float, nv: float) -> np.ndarray:
     """The lobe's two angular terms (N, 2) for exponents ``nu``, ``nv``.
 
     Pairs with either direction at or below the horizon give 0. Non-finite components
     give 0 as well: a lobe never turns bad input into NaN.
     """
-    wi = np.asarray(wi, dtype=np.float64).reshape(-1, 3)
-    wo = np.asarray(wo, dtype=np.float64).reshape(-1, 3)
-    finite = np.isfinite(wi).all(axis=1) & np.isfinite(wo).all(axis=1)
-    wi = np.where(finite[:, None], wi, 0.0)
-    wo = np.where(finite[:, None], wo, 0.0)
+    wi, wo, lit = _lit_pairs(wi, wo)
     v = wi + wo
     length = np.sqrt(np.einsum("ij,ij->i", v, v))
-    lit = finite & (wi[:, 2] > 0) & (wo[:, 2] > 0) & (length > 0)
+    lit = lit & (length > 0)
     h = v / np.where(lit, length, 1.0)[:, None]
     h_dot_k = np.minimum(0.5 * length, 1.0)           # |wi + wo| / 2 for unit vectors
     hx2, hy2 = h[:, 0] ** 2, h[:, 1] ** 2
@@ -170,9 +233,10 @@ class LobeFit:
     @property
     def gain(self) -> float:
         """How many times smaller the weighted RMS is with the lobe (≥ 1), counting
-        residuals below 1 % of the data's own RMS as 1 %: a BRDF the smooth surface fits
-        already (Lambert) gains nothing, however small the lobe makes its rounding."""
-        floor = max(0.01 * self.rms_data, np.finfo(float).tiny)
+        residuals below :data:`GAIN_FLOOR` of the data's own RMS as that: a BRDF the
+        smooth surface fits already (Lambert) gains nothing, however small the lobe makes
+        its rounding."""
+        floor = max(GAIN_FLOOR * self.rms_data, np.finfo(float).tiny)
         return max(self.rms_smooth, floor) / max(self.rms_with_lobe, floor)
 
 
@@ -207,7 +271,7 @@ def fit_lobe(brdf, wavelengths: np.ndarray, basis: LinearModelBasis | None = Non
     two spectra and a smooth polynomial in cosθi, cosθo (the diffuse layer's stand-in,
     not kept) solve a linear least-squares problem; the exponents are searched on a
     log grid (on a quarter of the samples), then refined by Nelder–Mead. Isotropic
-    BRDFs search nu = nv.
+    BRDFs search nu = nv. A family without exponents (Oren–Nayar) is that one solve.
 
     ``callback(fraction, message) -> stop?`` reports progress; a true return raises
     ``Cancelled``. Raises ValueError for an unknown family or a BRDF returning
@@ -233,31 +297,18 @@ def fit_lobe(brdf, wavelengths: np.ndarray, basis: LinearModelBasis | None = Non
         nonlocal evaluations
         evaluations += 1
         rows = slice(None, None, step)
-        terms = lobe_terms(wi[rows], wo[rows], nu, nv) * (wi[rows, 2] * weight[rows])[:, None]
+        used = FAMILY_TERMS[family]     # a term that is 0 everywhere gets a spectrum of 0
+        terms = family_terms(family, wi[rows], wo[rows], nu, nv)[:, :used] * \
+            (wi[rows, 2] * weight[rows])[:, None]
         design = np.concatenate([terms, smooth[rows]], axis=1)
         coefficients, *_ = np.linalg.lstsq(design, target[rows], rcond=None)
         residual = target[rows] - design @ coefficients
-        return float(np.einsum("ij,ij->", residual, residual)), coefficients[:2]
+        spectra = np.zeros((2, target.shape[1]))
+        spectra[:used] = coefficients[:used]
+        return float(np.einsum("ij,ij->", residual, residual)), spectra
 
-    def exponents(log_exponents: np.ndarray) -> tuple[float, float]:
-        nu, nv = np.exp(np.clip(log_exponents, *np.log(EXPONENT_RANGE)))[[0, -1]]
-        return float(nu), float(nv)
-
-    # A coarse log grid on a quarter of the samples finds the basin; Nelder–Mead on all
-    # of them refines it.
-    dims = 1 if isotropic else 2
-    grid = np.linspace(np.log(1.0), np.log(EXPONENT_RANGE[1]), 14)
-    candidates = (grid[:, None] if dims == 1 else
-                  np.stack(np.meshgrid(grid, grid, indexing="ij"), -1).reshape(-1, 2))
-    losses = []
-    for i, point in enumerate(candidates):
-        losses.append(solve(*exponents(point), step=4)[0])
-        report(callback, 0.6 * (i + 1) / len(candidates), "fitting the specular lobe")
-    best = candidates[int(np.argmin(losses))]
-    refined = minimize(lambda p: solve(*exponents(p))[0], best, method="Nelder-Mead",
-                       options={"xatol": 1e-4, "fatol": 0.0, "maxiter": 200 * dims})
-    # float32, as stored and as the GPU evaluates them; the spectra solved for those.
-    nu, nv = (float(np.float32(v)) for v in exponents(refined.x))
+    nu, nv = (0.0, 0.0) if family in FAMILIES_WITHOUT_EXPONENTS else \
+        _search_exponents(solve, isotropic, callback)
     loss, spectra = solve(nu, nv)
     smooth_only, *_ = np.linalg.lstsq(smooth, target, rcond=None)
     smooth_loss = float(np.sum((target - smooth @ smooth_only) ** 2))
@@ -268,6 +319,34 @@ def fit_lobe(brdf, wavelengths: np.ndarray, basis: LinearModelBasis | None = Non
     return LobeFit(lobe, float(np.sqrt(np.sum(target ** 2) / count)),
                    float(np.sqrt(smooth_loss / count)), float(np.sqrt(loss / count)),
                    evaluations, time.perf_counter() - start)
+
+
+def _search_exponents(solve, isotropic: bool, callback: ProgressCallback | None
+                      ) -> tuple[float, float]:
+    """(nu, nv) minimising ``solve(nu, nv, step)[0]``, rounded to float32 (as stored and
+    as the GPU evaluates them): a coarse log grid on a quarter of the samples finds the
+    basin, Nelder–Mead on all of them refines it."""
+    def exponents(log_exponents: np.ndarray) -> tuple[float, float]:
+        nu, nv = np.exp(np.clip(log_exponents, *np.log(EXPONENT_RANGE)))[[0, -1]]
+        return float(nu), float(nv)
+
+    dims = 1 if isotropic else 2
+    grid = np.linspace(np.log(1.0), np.log(EXPONENT_RANGE[1]), 14)
+    candidates = (grid[:, None] if dims == 1 else
+                  np.stack(np.meshgrid(grid, grid, indexing="ij"), -1).reshape(-1, 2))
+    losses = []
+    for i, point in enumerate(candidates):
+        losses.append(solve(*exponents(point), step=4)[0])
+        report(callback, 0.6 * (i + 1) / len(candidates), "fitting the specular lobe")
+    best = candidates[int(np.argmin(losses))]
+    # fatol relative to the loss: with 0, the search stopped only where its simplex's
+    # losses were bit-equal, which depends on the BLAS's rounding (the same fit took
+    # 322 evaluations on one machine and 1608, the iteration cap, on another).
+    fatol = 1e-9 * solve(*exponents(best))[0]
+    refined = minimize(lambda p: solve(*exponents(p))[0], best, method="Nelder-Mead",
+                       options={"xatol": 1e-4, "fatol": fatol, "maxiter": 200 * dims})
+    nu, nv = (float(np.float32(v)) for v in exponents(refined.x))
+    return nu, nv
 
 
 def residual_anisotropy(brdf, lobe: SpecularLobe, wavelengths: np.ndarray,

@@ -55,10 +55,11 @@ def test_finer_resolution_doubles_the_theta_cells_up_to_the_demos(name, iso, res
 
 
 def test_oren_nayar_at_the_horizon_takes_the_finer_grid_and_meets_the_goal():
+    """Packs alone (the material's own lobe family is off): twice the θ cells."""
     brdf = _clay()
     basis = build_basis(brdf, WL, True, 6)
-    coarse = factor_material(brdf, basis, _options(automatic=False))
-    auto = factor_material(brdf, basis, _options())
+    coarse = factor_material(brdf, basis, _options(automatic=False, lobe="off"))
+    auto = factor_material(brdf, basis, _options(lobe="off"))
     report = auto.model.report
     assert report["grazing_refined"] and auto.model.resolution == (64, 128, 64)
     assert report["grazing_finer_max_de94"] < report["grazing_max_de94"]
@@ -78,3 +79,14 @@ def test_no_refinement_without_automatic_or_where_the_horizon_is_fine():
     assert job.model.resolution == (32, 64, 32)
     manual = factor_material(lambert, basis, _options(packs=1, automatic=False))
     assert "grazing_refined" not in manual.model.report
+
+
+def test_oren_nayar_beside_its_own_term_needs_no_finer_grid():
+    """With the lobe Automatic chooses (Oren–Nayar's term, core/brdf/lobe.py) the horizon
+    is the term's, in closed form: no refinement, and far within the bound."""
+    brdf = _clay()
+    job = factor_material(brdf, build_basis(brdf, WL, True, 6), _options())
+    assert job.model.lobe.family == "oren_nayar"
+    assert not job.model.report["grazing_refined"]
+    assert job.model.resolution == (32, 64, 32)
+    assert _max_below_89_5(job.model, brdf) < 0.2
