@@ -180,8 +180,9 @@ def markdown(results: dict, source: str, llvmpipe: dict, earlier: dict | None,
         "## Each choice against the path it replaced", "",
         "`benchmarks/draw_variants.py`'s comparisons (its docstring says what each is). "
         "llvmpipe's column is `docs/bench_draw_variants.json` (2 CPU cores, commit "
-        f"{str(llvmpipe.get('commit'))[:7]}: before each light's clamp at 0 and the "
-        "light-loop rule).", "",
+        f"{str(llvmpipe.get('commit'))[:7]}, with each light's clamp at 0; both light-loop "
+        "orders forced, as here). Comparisons added since this replay (the Oren–Nayar "
+        "term) are on that page alone.", "",
         *variant_table(cases, llvmpipe), "",
         "### The light loop's order, by packs and lights", "",
         "Packs outermost (the view's axes once per pack for all lights) over light by "

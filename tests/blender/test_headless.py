@@ -114,6 +114,9 @@ def test_panel_staleness_check(clean_scene):
     material = spectral_material()
     assert bpy.ops.spectral.factor_material() == {"FINISHED"}
     assert panels._stale(bpy.context, material) == ""
+    # The result says which lobe family Automatic kept (Oren–Nayar's term for this one).
+    assert panels.lobe_label(material.spectral.result.lobe) == "Oren–Nayar"
+    assert panels.lobe_label("") == "None"
     material.spectral.sigma = 0.6
     assert "Out of date" in panels._stale(bpy.context, material)
     material.spectral.sigma = -1.0

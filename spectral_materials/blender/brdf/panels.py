@@ -17,7 +17,7 @@ from ..ui.spectrum import draw_spectrum
 from ..ui.widgets import draw_image
 from ..viewport import draw as spectral_draw
 from . import drawer, jobs, sources
-from .properties import MODEL_KEYS
+from .properties import LOBE_ITEMS, MODEL_KEYS
 
 #: ``section(layout, material)``, drawn in the Stored Factors panel in this order.
 RESULT_SECTIONS: list[Callable[..., None]] = []
@@ -103,6 +103,8 @@ class SPECTRAL_PT_material_result(bpy.types.Panel):
         grid.label(text=f"{r.packs} ({r.terms} terms of {r.spectral_size} coefficients)")
         grid.label(text="Grid")
         grid.label(text=f"{r.parameterization} {r.resolution}")
+        grid.label(text="Analytic lobe")
+        grid.label(text=lobe_label(r.lobe))
         grid.label(text="ΔE94 mean / p95 / max")
         grid.label(text=f"{r.de94_mean:.3f} / {r.de94_p95:.3f} / {r.de94_max:.3f}")
         grid.label(text="Time")
@@ -118,6 +120,12 @@ class SPECTRAL_PT_material_result(bpy.types.Panel):
         for section in RESULT_SECTIONS:
             section(layout, material)
         layout.operator("spectral.clear_results", icon="TRASH").scope = "ACTIVE"
+
+
+def lobe_label(family: str) -> str:
+    """The result's lobe family as the *Analytic lobe* setting names it ("None" without)."""
+    names = {identifier.lower(): name for identifier, name, _ in LOBE_ITEMS}
+    return names.get(family, family) if family else "None"
 
 
 def _stale(context, material) -> str:

@@ -105,8 +105,8 @@ def shares_view_axes(parameterization: str, packs: int, lights: int) -> bool:
     fetches. On an NVIDIA H200 (docs/bench_gpu_variants.md, io_iso, 1.0 M pixels) it
     took 0.85× the light-by-light frame with 2 lights from 8 packs on (1.10× at 4), and
     with 4 lights 0.96× at 12 packs, 0.80× at 22 (1.19× at 8); with 8 lights it lost at
-    every pack count measured (1.07× at 22, 1.78× at 8). llvmpipe gained from fewer packs
-    before the clamp (0.77× at 4 packs × 4 lights), but a viewport draws on a GPU.
+    every pack count measured (1.07× at 22, 1.78× at 8). llvmpipe gains from fewer packs
+    (0.80× at 4 packs × 4 lights, 0.84× with 8), but a viewport draws on a GPU.
     Measured on io_iso (one view axis) alone, on one GPU: the rule between those counts,
     and for io and ea (whose φo is shared too), is unmeasured.
     """
