@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -38,8 +39,10 @@ def _ms(case: dict) -> float:
 
 
 def variant_stem(comparison: str, packs: int, lights: int) -> str:
-    """export_cases.export_variants's name of one comparison's draws."""
-    return f"{VARIANT_PREFIX}{comparison.replace(' ', '_')}_p{packs}_l{lights}"
+    """export_cases.export_variants's name of one comparison's draws, ASCII (the device
+    machine returns no file whose name has other characters: "Oren–Nayar" → "Oren_Nayar")."""
+    slug = re.sub(r"[^A-Za-z0-9]+", "_", comparison).strip("_")
+    return f"{VARIANT_PREFIX}{slug}_p{packs}_l{lights}"
 
 
 def variant_table(cases: dict, llvmpipe: dict) -> list[str]:
@@ -180,9 +183,8 @@ def markdown(results: dict, source: str, llvmpipe: dict, earlier: dict | None,
         "## Each choice against the path it replaced", "",
         "`benchmarks/draw_variants.py`'s comparisons (its docstring says what each is). "
         "llvmpipe's column is `docs/bench_draw_variants.json` (2 CPU cores, commit "
-        f"{str(llvmpipe.get('commit'))[:7]}, with each light's clamp at 0; both light-loop "
-        "orders forced, as here). Comparisons added since this replay (the Oren–Nayar "
-        "term) are on that page alone.", "",
+        f"{str(llvmpipe.get('commit'))[:7]}, each light clamped at 0, both loop orders "
+        "forced); comparisons added since this replay are on that page alone.", "",
         *variant_table(cases, llvmpipe), "",
         "### The light loop's order, by packs and lights", "",
         "Packs outermost (the view's axes once per pack for all lights) over light by "

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.brdf import factor, models
+from ...core.brdf.lobe import LOBE_FAMILIES
 from ...core.brdf.params import get_parameterization
 from ...core.colour import spectra
 from ...core.formats.brdf_files import looked_up_in_cells, read_brdf_file
@@ -106,6 +107,10 @@ class MaterialInputs:
             "theta_cells": self.theta_cells, "packs": self.packs,
             "target_de94": self.target_de94, "pack_size": self.pack_size,
             "smoothing": self.smoothing, "lobe": self.lobe, "automatic": self.automatic,
+            # What "auto" chooses among: a material factored before a family existed is
+            # factored again (Oren–Nayar's term changed what Automatic does for rough
+            # diffuse materials).
+            **({"lobe_families": list(LOBE_FAMILIES)} if self.lobe == "auto" else {}),
             # Only where it can change the result (a file looked up in cells), so that other
             # materials keep their hash.
             **({"cells": self.cells} if self.source == "file"

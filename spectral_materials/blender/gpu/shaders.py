@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ...core.brdf.axes import EDGE_RULES
 from ...core.brdf.filtered_factors import FACTOR_PRECISIONS, PRECISION_TEXELS
-from ...core.brdf.lobe import DENOMINATOR_FLOOR
+from ...core.brdf.lobe import DENOMINATOR_FLOOR, LOBE_FAMILIES
 from ...core.brdf.measured_cells import MIN_CENTRE_COSINE
 from ...core.brdf.params import PARAMETERIZATIONS, get_parameterization
 from ...core.brdf.shading import LOBE_TEXELS, light_row_texels
@@ -189,6 +189,9 @@ class ShaderKey:
         return out
 
     def validate(self) -> None:
+        if not 1 <= self.lobe_family <= len(LOBE_FAMILIES):
+            raise ValueError(f"lobe family code {self.lobe_family} is not one of "
+                             f"1..{len(LOBE_FAMILIES)} ({', '.join(LOBE_FAMILIES)})")
         if self.factors not in FACTOR_PRECISIONS:
             raise ValueError(f"factor precision must be one of {FACTOR_PRECISIONS}, "
                              f"got {self.factors!r}")

@@ -27,9 +27,9 @@ from .params import get_parameterization
 LOBE_SETTINGS = ("off", "auto", *LOBE_FAMILIES)
 #: "auto" tries a fitted lobe when it makes the fit's weighted RMS at least this many times
 #: smaller than a smooth surface alone: glossy analytic models measure 3–70 with the
-#: Ashikhmin–Shirley lobe, the MERL round trip 12, Oren–Nayar 1.3 with it but 15–122
-#: (σ 0.1–0.52) with its own family's, glossy models 1.02 with that one, Lambert 1 with
-#: either (tests/core/brdf/test_lobe.py, test_oren_nayar_lobe.py).
+#: Ashikhmin–Shirley lobe, the MERL round trip 12, Oren–Nayar 1.3 with it but 10–20 at
+#: σ 0.1 and over 100 at 0.52 with its own family's, glossy models under 1.1 with that
+#: one, Lambert 1 with either (tests/core/brdf/test_lobe.py, test_oren_nayar_lobe.py).
 LOBE_MIN_GAIN = 2.0
 #: ... and keeps it without measuring the packs both ways when the gain is at least this:
 #: the lobe's family is then the BRDF's own (60–70 measured), and the second series would
@@ -127,12 +127,12 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
 
     def fit(with_lobe, low, high, chosen=None):
         chosen = chosen or (lobe_options if with_lobe is not None else plain_options)
-        return factor_brdf_series(
+        return _distinct_counts(factor_brdf_series(
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
             parameterization=chosen.parameterization, isotropic=chosen.isotropic,
             resolution=chosen.resolution, spectral_basis=basis, lobe=with_lobe, cells=cells,
-            callback=scaled(callback, low, high))
+            callback=scaled(callback, low, high)))
 
     undecided = lobe is not None and options.lobe == "auto" \
         and lobe_report["lobe_fit_gain"] < LOBE_SURE_GAIN
@@ -146,7 +146,6 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
                                                  lobe_options, plain_options, callback)
     if options.automatic and cells is not None and options.target_de94 is None:
         models, lobe_report = _best_packs_in_cells(brdf, models, lobe_report)
-    models = _distinct_counts(models)
     report(callback, 0.95, "measuring ΔE94")
     series = _measured_series(models, error, lobe_report)
     final = models[-1]
@@ -185,10 +184,13 @@ def _automatic_horizon(brdf, models: list[FactoredBRDF],
 def _distinct_counts(models: list[FactoredBRDF]) -> list[FactoredBRDF]:
     """The series without the counts past where the fit stopped at its error floor, which
     repeat its final model (``factor_brdf_series``): an Oren–Nayar rest beside its own
-    lobe is one exact pack."""
+    lobe is one exact pack. Of equal counts the last is kept: the final model, whose
+    report says why the fit stopped (``stopped``, ``requested_packs``)."""
     kept: list[FactoredBRDF] = []
     for model in models:
-        if not kept or model.packs > kept[-1].packs:
+        if kept and model.packs == kept[-1].packs:
+            kept[-1] = model
+        else:
             kept.append(model)
     return kept
 

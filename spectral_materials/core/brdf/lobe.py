@@ -24,11 +24,12 @@ solution, so only the exponents are searched.
 A rough diffuse surface has a ridge of its own: Oren–Nayar's back-scatter term
 ``B·max(0, cos(φi − φo))·sin α·tan β`` grows without bound as both directions near the
 horizon in one azimuth, and ``f·cosθi`` there depends on ``cosθi / cosθo``, which no
-table of θ cells follows into the corner (ΔE94 8–16 at 89.5–90° in 4,000 dense pairs:
-docs/bench_colour_targets.md). The family ``oren_nayar`` draws that term in closed form,
-``a = max(0, xi·xo + yi·yo) / max(cosθi, cosθo)`` with one free spectrum ``c₀ = ρ·B/π``
-(its second term is 0 and it has no shape parameters); the packs keep ``ρ·A/π``, which
-is smooth. The spectrum is a linear least-squares solution, as the Schlick spectra are.
+table of θ cells follows into the corner (ΔE94 up to 20 at 89.5–90° in 4,000 dense
+pairs: docs/bench_colour_targets.md, packs alone). The family ``oren_nayar`` draws that
+term in closed form, ``a = max(0, xi·xo + yi·yo) / max(cosθi, cosθo)``, with one free
+spectrum ``c₀ = ρ·B/π`` (its second term is 0 and it has no shape parameters); the
+packs keep ``ρ·A/π``, which is smooth. The spectrum is a linear least-squares
+solution, as the Schlick spectra are.
 
 The GLSL (``glsl/brdf/specular_lobe.glsl``) and the EEVEE node group evaluate
 :meth:`SpecularLobe.angular` with the same clamps, for either family.
@@ -82,7 +83,8 @@ FIT_SEED = 20181  # not the protocol's seed: the fit never sees the pairs it is 
 
 @dataclass(frozen=True)
 class SpecularLobe:
-    """An Ashikhmin–Shirley lobe with two free Schlick spectra (see the module docstring).
+    """An analytic lobe: Ashikhmin–Shirley's with two free Schlick spectra, or Oren–Nayar's
+    back-scatter term with one (see the module docstring).
 
     Attributes
     ----------
@@ -119,6 +121,10 @@ class SpecularLobe:
             raise ValueError(f"lobe spectra must be (S, 2), got {spectral.shape}")
         if not np.isfinite(spectral).all():
             raise ValueError("lobe spectra hold non-finite values")
+        if np.any(spectral[:, FAMILY_TERMS[self.family]:] != 0):
+            # The GPU multiplies a term of 0 by its weight in float32: a huge spectrum
+            # there would draw NaN where the float64 mirror draws nothing.
+            raise ValueError(f"an {self.family} lobe's second spectrum must be 0")
 
     @property
     def nbytes(self) -> int:
@@ -160,7 +166,9 @@ def family_terms(family: str, wi: np.ndarray, wo: np.ndarray, nu: float, nv: flo
     none)."""
     if family == "oren_nayar":
         return oren_nayar_terms(wi, wo)
-    return lobe_terms(wi, wo, nu, nv)
+    if family == "ashikhmin_shirley":
+        return lobe_terms(wi, wo, nu, nv)
+    raise ValueError(f"unknown lobe family {family!r}; one of {LOBE_FAMILIES}")
 
 
 def _lit_pairs(wi: np.ndarray, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -116,3 +116,17 @@ def test_lobe_with_truncated_packs_and_filtered_factors(lobe_models):
     assert drawn.lobe is model.lobe
     reference, mask = sphere_xyz(drawn, 30.0, "FL2", SIZE)
     _check(image[mask][:, :3].astype(np.float64), reference[mask], "FL2", "unorm16 filtered")
+
+
+def test_a_shader_key_refuses_an_unknown_lobe_family(lobe_models):
+    """A family code the GLSL has no branch for would compile another family's."""
+    from spectral_materials.blender.brdf.gpu_material import GPUMaterial
+    from spectral_materials.blender.gpu import shaders
+
+    key = GPUMaterial(lobe_models["oren_nayar"]).key(four_lights())
+    assert key.lobe_family == 2 and key.defines()["SM_LOBE_FAMILY"] == "2"
+    key.validate()
+    for code in (0, 3):
+        with pytest.raises(ValueError, match="lobe family code"):
+            replace(key, lobe_family=code).validate()
+    assert shaders.ShaderKey("io_iso", 3, 1, 8, 1, frozenset({"SUN"})).lobe_family == 1

@@ -101,6 +101,34 @@ def test_load_refuses_an_unknown_edge_rule_and_names_the_material(clean_scene):
         storage.load_factored(material)
 
 
+def test_load_refuses_a_hostile_oren_nayar_lobe_and_names_the_material(clean_scene):
+    """A stored Oren–Nayar lobe with exponents, with a second spectrum (which the GPU
+    would multiply by 0 in float32: NaN from a huge one), or an unknown family."""
+    material = spectral_material()
+    brdf = models.make_model("oren_nayar", sigma=0.5,
+                             albedo=(spectra.WAVELENGTHS_REFERENCE, spectra.colorchecker(9)))
+    model = factor_brdf(brdf, parameterization="io_iso", isotropic=True,
+                        resolution=(6, 12, 6), packs=1, spectral_basis=4, lobe="oren_nayar")
+    storage.store_factored(material, model)
+    result = material.spectral.result
+    assert storage.load_factored(material).lobe.family == "oren_nayar"
+    good = list(result["lobe_spectral"])
+    for change, message in ((lambda: result.__setitem__("lobe_exponents", [12.0, 12.0]),
+                             "no exponents"),
+                            (lambda: result.__setitem__("lobe_spectral",
+                                                        [v if i % 2 == 0 else 1e38
+                                                         for i, v in enumerate(good)]),
+                             "second spectrum must be 0"),
+                            (lambda: setattr(result, "lobe", "phong"),
+                             "unknown lobe family")):
+        change()
+        with pytest.raises(storage.StorageError, match=f"Material.*{message}"):
+            storage.load_factored(material)
+        result["lobe_exponents"], result["lobe_spectral"] = [0.0, 0.0], good
+        result.lobe = "oren_nayar"
+    assert storage.load_factored(material).lobe.family == "oren_nayar"
+
+
 _REOPEN = textwrap.dedent("""
     import sys, numpy as np, bpy
     from spectral_materials import blender as addon
