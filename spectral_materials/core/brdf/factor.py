@@ -27,7 +27,7 @@ from ..decomposition import cp, separable
 from ..progress import ProgressCallback, report, scaled
 from . import metrics
 from .factored import FactoredBRDF
-from .lobe import LobeResidual, SpecularLobe, resolve_lobe
+from .lobe import INVISIBLE_REST, LobeResidual, SpecularLobe, resolve_lobe
 from .mode_weighting import mode_weights, scale_modes
 from .params import Parameterization, get_parameterization
 from .tabulate import Grid, Table, tabulate
@@ -199,8 +199,9 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
 
     ``lobe``: a family of :data:`.lobe.LOBE_FAMILIES` fits an analytic lobe
     (:func:`.lobe.fit_lobe`) after the basis, a :class:`.lobe.SpecularLobe` (on that
-    basis) is used as given; the table then holds the residual ``f − lobe`` and carries
-    the lobe (``Table.lobe``). ``cells``: the models are drawn in a measured table's
+    basis) is used as given; the table then holds the residual ``f − lobe`` (0 where
+    that is below :data:`.lobe.INVISIBLE_REST` of ``f``) and carries the lobe
+    (``Table.lobe``). ``cells``: the models are drawn in a measured table's
     (θh, θd, φd) cells (:mod:`.measured_cells`; ``Table.cells``), and the lobe is taken
     out as drawn there.
     """
@@ -220,7 +221,7 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
         lobe, fit_report = resolve_lobe(brdf, lobe, wl, basis, isotropic,
                                         scaled(callback, 0.0, 0.5))
         residual = LobeResidual(brdf, lobe, wl, None if basis is None else basis.vectors,
-                                cells)
+                                cells, invisible=INVISIBLE_REST)
         table = tabulate(residual, grid, wl, cosine_weighted=cosine_weighted, basis=basis,
                          callback=scaled(callback, 0.5 if fit_report else 0.0, 1.0),
                          signed=True)

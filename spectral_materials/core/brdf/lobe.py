@@ -77,6 +77,13 @@ SMOOTH_DEGREE = 2
 #: own term leaves 1e-15, gained only 1.5, and its grazing corner (where the term
 #: outgrows everything, whatever σ) was left to the packs.
 GAIN_FLOOR = 1e-3
+#: Where the lobe leaves less than this fraction of the BRDF (the norm over wavelengths of
+#: ``f − lobe`` against that of ``f``), the rest that the packs factor is taken as 0
+#: (``LobeResidual(invisible=...)``). There the rest is the lobe's own few-per-mille misfit
+#: along the mirror direction, invisible beside the lobe, but a ridge: the low-rank packs
+#: cannot follow it and spread it onto the dark flanks beside the mirror, where it showed
+#: (issue 18: Ashikhmin–Shirley 32, view 89.5–89.9°, ΔE94 up to 5.3 under FL11; 0.86 so).
+INVISIBLE_REST = 0.003
 FIT_PAIRS = 8000
 FIT_SEED = 20181  # not the protocol's seed: the fit never sees the pairs it is measured at
 
@@ -406,12 +413,18 @@ class LobeResidual:
     attributes are the BRDF's own. ``cells``: the model is drawn in a measured table's
     cells (:mod:`.measured_cells`), so the lobe is taken out as drawn there, in cells:
     the rest is then the table's own binned rest, not the smooth lobe's variation within
-    each cell (which near grazing the packs cannot follow).
+    each cell (which near grazing the packs cannot follow). ``invisible``: pairs whose rest
+    is below that fraction of the BRDF (norms over wavelengths) get a rest of 0
+    (:data:`INVISIBLE_REST` when factoring; 0 keeps every rest).
     """
 
     def __init__(self, brdf, lobe: SpecularLobe, wavelengths: np.ndarray,
-                 basis: np.ndarray | None, cells: tuple[int, int, int] | None = None):
+                 basis: np.ndarray | None, cells: tuple[int, int, int] | None = None,
+                 invisible: float = 0.0):
+        if not (np.isfinite(invisible) and 0.0 <= invisible < 1.0):
+            raise ValueError(f"invisible must be in [0, 1), got {invisible}")
         self.brdf, self.lobe, self.cells = brdf, lobe, cells
+        self.invisible = float(invisible)
         self._wavelengths = np.asarray(wavelengths, dtype=np.float64)
         self._spectra = lobe.on_wavelengths(basis)                      # (L, 2)
 
@@ -427,9 +440,14 @@ class LobeResidual:
             angular = self.lobe.angular(wi, wo)
         else:
             angular = measured_cells.in_cells(self.lobe.angular, wi, wo, False, self.cells)
-        return f - angular @ spectra.T
+        rest = f - angular @ spectra.T
+        if self.invisible > 0.0:
+            hidden = (np.linalg.norm(rest, axis=-1)
+                      < self.invisible * np.linalg.norm(f, axis=-1))
+            rest[hidden] = 0.0
+        return rest
 
     def __getattr__(self, name):
-        if name in ("brdf", "cells"):       # not yet set (copy, pickle): no recursion
+        if name in ("brdf", "cells", "invisible"):   # not yet set (copy, pickle)
             raise AttributeError(name)
         return getattr(self.brdf, name)
