@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.brdf import factor, models
-from ...core.brdf.lobe import LOBE_FAMILIES
+from ...core.brdf.lobe import INVISIBLE_REST, LOBE_FAMILIES
 from ...core.brdf.params import get_parameterization
 from ...core.colour import spectra
 from ...core.formats.brdf_files import looked_up_in_cells, read_brdf_file
@@ -111,6 +111,9 @@ class MaterialInputs:
             # factored again (Oren–Nayar's term changed what Automatic does for rough
             # diffuse materials).
             **({"lobe_families": list(LOBE_FAMILIES)} if self.lobe == "auto" else {}),
+            # Beside a lobe the packs factor the rest that shows (lobe.INVISIBLE_REST):
+            # a material factored before that rule is factored again.
+            **({"invisible_rest": INVISIBLE_REST} if self.lobe != "off" else {}),
             # Only where it can change the result (a file looked up in cells), so that other
             # materials keep their hash.
             **({"cells": self.cells} if self.source == "file"
