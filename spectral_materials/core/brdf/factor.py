@@ -199,11 +199,10 @@ def prepare_table(brdf, *, parameterization="io", isotropic=None, resolution=Non
 
     ``lobe``: a family of :data:`.lobe.LOBE_FAMILIES` fits an analytic lobe
     (:func:`.lobe.fit_lobe`) after the basis, a :class:`.lobe.SpecularLobe` (on that
-    basis) is used as given; the table then holds the residual ``f − lobe`` (0 where
-    that is below :data:`.lobe.INVISIBLE_REST` of ``f``) and carries the lobe
-    (``Table.lobe``). ``cells``: the models are drawn in a measured table's
-    (θh, θd, φd) cells (:mod:`.measured_cells`; ``Table.cells``), and the lobe is taken
-    out as drawn there.
+    basis) is used as given; the table then holds the residual ``f − lobe`` (0 below
+    :data:`.lobe.INVISIBLE_REST` of ``f``) and carries the lobe (``Table.lobe``).
+    ``cells``: the models are drawn in a measured table's (θh, θd, φd) cells
+    (:mod:`.measured_cells`; ``Table.cells``), and the lobe is taken out as drawn there.
     """
     if not callable(brdf):
         raise TypeError(f"brdf must be callable f(wi, wo, wavelengths), got {type(brdf).__name__}")
