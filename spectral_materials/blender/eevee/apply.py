@@ -169,8 +169,8 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
     the key light ``light_object`` or the brightest first); fewer where the node group
     would not fit EEVEE's node constants (``counts["lights_left_to_rgb"]`` names them).
     ``shadows``: their radiance on the material keeps EEVEE's own shadows, read through
-    twin lights (:mod:`.shadow_twins`, :mod:`.shadow_nodes`; Blender 5.0 and later,
-    ``counts["shadows"]`` says whether it did); without, they cast none on it. The other
+    twin lights (:mod:`.shadow_twins`, :mod:`.shadow_nodes`; ``counts["shadows"]`` says
+    whether it did); without, they cast none on it. The other
     lights keep EEVEE's shadows. ``measure``
     also computes the key-light term's ΔE94 against the 5 nm reference
     (``core.prefilter.key_light_error``; a fraction of a second), kept with the record.
@@ -178,7 +178,7 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
     if material.spectral.result.image is None:
         raise EEVEEError(f"Material '{material.name}' has no stored factors: factor it first")
     model = storage.load_factored(material)
-    shadows = bool(shadows) and shadow_nodes.probes_supported()
+    shadows = bool(shadows)
     irradiances = _irradiances(scene, material)
     chosen = spectral_lights(scene, material, lights, light_object, irradiances)
     spectral = {obj.name: light for obj, light, _ in irradiances}
@@ -196,7 +196,8 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group.name = eevee_nodes.group_name(material)
     output, original = _add_frame(material, group)
-    thickness = _thin_probes(material, output) if shadows else None
+    thickness = _thin_probes(material, output) if shadows and shadow_nodes.thin_probes() \
+        else None
     previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in used}
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)

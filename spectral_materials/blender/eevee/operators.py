@@ -41,9 +41,9 @@ class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
                               f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm"
                               + (f"; {', '.join(rgb)} left to RGB: the nodes would exceed "
                                  "EEVEE's limit" if rgb else "")
-                              + ("; the spectral lights cast no shadow on it (their EEVEE "
-                                 "shadows need Blender 5.0 or later)"
-                                 if settings.eevee_spectral_shadows and not counts["shadows"]
+                              + ("; the scene's EEVEE Shadows are off: no light casts a "
+                                 "shadow" if counts["shadows"]
+                                 and not getattr(context.scene.eevee, "use_shadows", True)
                                  else ""))
         return {"FINISHED"}
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import bpy
 
-from . import apply as eevee, shadow_nodes
+from . import apply as eevee
 
 
 def draw_eevee(layout, material) -> None:
@@ -16,10 +16,7 @@ def draw_eevee(layout, material) -> None:
     box = layout.box()
     record = eevee.applied(material)
     box.prop(bpy.context.scene.spectral, "eevee_spectral_lights")
-    row = box.row()
-    row.enabled = shadow_nodes.probes_supported()
-    row.prop(bpy.context.scene.spectral, "eevee_spectral_shadows",
-             text=None if row.enabled else "Shadows of spectral lights (Blender 5.0+)")
+    box.prop(bpy.context.scene.spectral, "eevee_spectral_shadows")
     if record is None:
         box.label(text="EEVEE: not applied", icon="SHADING_RENDERED")
         box.operator("spectral.eevee_apply", icon="NODETREE")

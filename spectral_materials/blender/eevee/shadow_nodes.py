@@ -22,10 +22,10 @@ the probe sees nothing of the twins (a light behind the lobe, or Cycles, which h
 Shader to RGB) the light counts as visible: its radiance is unshadowed, as without the
 probe.
 
-Blender 4.5 has no such probe here: a thickness of 0 gives the probe no light at all,
-and in this material at EEVEE's own thickness the probe (aimed or along −N) saw its
-twin unshadowed under a plate that shadows the plane (docs/eevee.md). There the
-spectral lights stay unshadowed on the material (:func:`probes_supported`).
+Blender 4.5 gives a thin probe no light at all, so there the probe keeps EEVEE's own
+thickness (:func:`thin_probes`), through which it sees its twins too, with the same
+aim. (A scene made by ``bpy.data.scenes.new`` in 4.5 has EEVEE's *Shadows* off, unlike
+the startup file's: no light casts a shadow there, twins included.)
 """
 
 from __future__ import annotations
@@ -41,8 +41,9 @@ PROBE_ROUGHNESS = 0.5
 MIN_RESPONSE = 1e-3
 
 
-def probes_supported() -> bool:
-    """Whether this Blender's EEVEE lets a thin refraction probe see the twins' shadows."""
+def thin_probes() -> bool:
+    """Whether the probes are thin sheets (the material output's thickness 0): Blender
+    5.0 and later. Blender 4.5 gives a thin refraction closure no light."""
     return bpy.app.version >= (5, 0, 0)
 
 
