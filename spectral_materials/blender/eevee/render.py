@@ -176,6 +176,8 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
     scratch = _Scratch()
     previous_space = working_space()
     scene = scratch.add("scenes", bpy.data.scenes.new("SM EEVEE sphere"))
+    # As the startup file's scene: Blender 4.5 makes a new scene with EEVEE's Shadows off.
+    scene.eevee.use_shadows = True
     material = None
     try:
         sphere, material = _add_sphere(scratch, model)
