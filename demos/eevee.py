@@ -139,7 +139,7 @@ def _show(ax, image: np.ndarray, covered: np.ndarray, display, title: str) -> No
 
 
 def _shadowed(scene, comparison, lights: int, unshadowed: np.ndarray, images: Path) -> dict:
-    """The add-on's default, the spectral lights' EEVEE shadows on (Blender 5.0+): render
+    """The add-on's default, the spectral lights' EEVEE shadows on: render
     again, count the material pixels a spectral light's shadow darkens (Y below 99 % of
     the render without), measure the others against 5 nm; the figure of both renders."""
     import matplotlib.pyplot as plt
@@ -216,8 +216,8 @@ def report_lines(section: dict) -> list[str]:
 
 def _shadow_lines(shadows: dict | None) -> list[str]:
     if not shadows or not shadows["on"]:
-        return ["The spectral lights' EEVEE shadows (*Shadows of spectral lights*) need "
-                "Blender 5.0 or later; this run's Blender has none.", ""]
+        return ["The spectral lights' EEVEE shadows (*Shadows of spectral lights*) were "
+                "off in this run.", ""]
     return ["With the add-on's default, the spectral lights' own EEVEE shadows "
             "(docs/eevee.md: twin lights read through a refraction probe), the same "
             f"render took {shadows['render_seconds']:.2f} s. The spectral lights' shadows "

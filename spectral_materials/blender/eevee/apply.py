@@ -196,8 +196,8 @@ def apply_eevee(material, scene, *, light_object=None, lights: int = MAX_SPECTRA
     remove_eevee(material, scene)                # re-applying replaces the previous nodes
     group.name = eevee_nodes.group_name(material)
     output, original = _add_frame(material, group)
-    thickness = _thin_probes(material, output) if shadows and shadow_nodes.thin_probes() \
-        else None
+    thickness = (_thin_probes(material, output) if shadows and shadow_nodes.thin_probes()
+                 else None)
     previous_receivers = {obj.name: _exclude_from_light(obj, objects) for obj in used}
     sync_light_colours(scene, to_rgb)
     counts = eevee_nodes.node_count(group)

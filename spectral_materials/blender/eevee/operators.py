@@ -40,11 +40,10 @@ class SPECTRAL_OT_eevee_apply(bpy.types.Operator):
                               f"{counts['images']} texture(s); key light ΔE94 mean "
                               f"{de['mean']:.3f}, p95 {de['p95']:.3f} against 5 nm"
                               + (f"; {', '.join(rgb)} left to RGB: the nodes would exceed "
-                                 "EEVEE's limit" if rgb else "")
-                              + ("; the scene's EEVEE Shadows are off: no light casts a "
-                                 "shadow" if counts["shadows"]
-                                 and not getattr(context.scene.eevee, "use_shadows", True)
-                                 else ""))
+                                 "EEVEE's limit" if rgb else ""))
+        if counts["shadows"] and not getattr(context.scene.eevee, "use_shadows", True):
+            self.report({"WARNING"}, "The scene's EEVEE Shadows are off (Render Properties "
+                                     "▸ Shadows): no light casts a shadow, spectral or not")
         return {"FINISHED"}
 
 

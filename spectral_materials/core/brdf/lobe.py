@@ -82,7 +82,8 @@ GAIN_FLOOR = 1e-3
 #: (``LobeResidual(invisible=...)``). There the rest is the lobe's own few-per-mille misfit
 #: along the mirror direction, invisible beside the lobe, but a ridge: the low-rank packs
 #: cannot follow it and spread it onto the dark flanks beside the mirror, where it showed
-#: (issue 18: Ashikhmin–Shirley 32, view 89.5–89.9°, ΔE94 up to 5.3 under FL11; 0.86 so).
+#: (issue 18: Ashikhmin–Shirley 32, view 89.5–89.9°, ΔE94 up to 5.3 under FL11; 0.86 with
+#: it).
 INVISIBLE_REST = 0.003
 FIT_PAIRS = 8000
 FIT_SEED = 20181  # not the protocol's seed: the fit never sees the pairs it is measured at

@@ -254,6 +254,20 @@ def test_operators_report_the_measured_error(clean_scene):
     assert eevee.applied(material) is None
 
 
+def test_the_operator_warns_when_the_scenes_shadows_are_off(clean_scene, capfd):
+    """Blender 4.5 makes new scenes with EEVEE's Shadows off: no light casts a shadow
+    there, and the spectral lights' shadows cannot either."""
+    spectral_material("Felt", packs=1)
+    jobs.factor_scene(clean_scene)
+    clean_scene.eevee.use_shadows = True
+    capfd.readouterr()
+    assert bpy.ops.spectral.eevee_apply() == {"FINISHED"}
+    assert "Shadows are off" not in "".join(capfd.readouterr())
+    clean_scene.eevee.use_shadows = False
+    assert bpy.ops.spectral.eevee_apply() == {"FINISHED"}
+    assert "Shadows are off" in "".join(capfd.readouterr())
+
+
 
 
 @pytest.mark.parametrize("parameterization, resolution, incidence, illuminant, lobe", [
