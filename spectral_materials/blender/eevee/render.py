@@ -36,6 +36,14 @@ PROTOCOL_WORKING_SPACE = "Linear Rec.2020"
 SPHERE_SEGMENTS = 256
 
 
+def new_scene(name: str):
+    """A new scene with EEVEE's Shadows on, as the startup file's scene has them: Blender
+    4.5 makes a new scene with them off, where no light casts a shadow."""
+    scene = bpy.data.scenes.new(name)
+    scene.eevee.use_shadows = True
+    return scene
+
+
 def black_world(name: str):
     world = bpy.data.worlds.new(name)
     world.color = (0.0, 0.0, 0.0)
@@ -175,9 +183,7 @@ def render_sphere_eevee(model, incidence_deg: float = 0.0, illuminant: str = "D6
     check_size(size, size)
     scratch = _Scratch()
     previous_space = working_space()
-    scene = scratch.add("scenes", bpy.data.scenes.new("SM EEVEE sphere"))
-    # As the startup file's scene: Blender 4.5 makes a new scene with EEVEE's Shadows off.
-    scene.eevee.use_shadows = True
+    scene = scratch.add("scenes", new_scene("SM EEVEE sphere"))
     material = None
     try:
         sphere, material = _add_sphere(scratch, model)

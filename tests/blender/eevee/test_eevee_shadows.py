@@ -19,6 +19,7 @@ from spectral_materials.blender.eevee import apply as eevee, shadow_twins
 from spectral_materials.blender.eevee.render import (
     _render_rgb,
     black_world,
+    new_scene,
     new_sun,
     scene_linear_to_xyz,
 )
@@ -51,9 +52,7 @@ def _scene(model, suns, plates, tilt_deg: float = 0.0):
     """A plane of the factored material under ``suns`` ((incidence, azimuth, illuminant)),
     with square ``plates`` ((x, y, height, half size)) above it casting shadows; the plane
     and everything above it tilted about x by ``tilt_deg``."""
-    scene = bpy.data.scenes.new("shadows")
-    # A new scene in Blender 4.5 has EEVEE's Shadows off (the startup file's are on).
-    scene.eevee.use_shadows = True
+    scene = new_scene("shadows")
     bpy.context.window.scene = scene
     mesh = bpy.data.meshes.new("plane")
     mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
