@@ -5,19 +5,21 @@ the table follows the edge rule, and a BRDF whose f·cosθi does not vanish ther
 Nayar's retro-reflection: along θi = θo it tends to B, not 0) is interpolated across a
 ridge narrower than a cell: Red clay reached ΔE94 7.0 at θi ≈ θo ≈ 89.3°
 (docs/bench_colour_targets.md). Under the add-on's *Automatic* layout,
-:func:`refine_theta` measures the fitted packs on seeded pairs with both directions in
-:data:`GRAZING_RANGE_DEG` (never the protocol's) and, where their largest ΔE94 lies in
+:func:`refine_theta` measures the fitted packs on seeded pairs (never the protocol's)
+with both directions in :data:`GRAZING_RANGE_DEG`, and as many with only the view there
+(:func:`check_pairs`), and, where their largest ΔE94 lies in
 (:data:`REFINE_ABOVE`, :data:`REFINE_BELOW`), fits again with twice the θ cells (where
 that is at most :data:`MAX_THETA_CELLS`) and keeps
 that fit where it measures lower there. Above :data:`REFINE_BELOW` no refit is spent:
 an error that large is not the cells' (the MERL round trip measures 114 there,
 docs/bench_colour_targets.md).
 
-Then :func:`choose_edge` picks the lookup's edge rule at the view's horizon, which costs
-no fit: ``"horizons"`` (the table falls to 0 as θo reaches 90°, as a layered surface's
-diffuse term and the rest beside a glossy lobe do) where it measures lower than
-``"horizon"`` on seeded pairs with θo in :data:`VIEW_RANGE_DEG`. Oren–Nayar keeps
-``"horizon"``: its retro-reflection does not vanish there.
+Each grid measured takes the lookup's edge rule at the view's horizon that
+:func:`choose_edge` picks for it, which costs no fit: ``"horizons"`` (the table falls
+to 0 as θo reaches 90°, as a layered surface's diffuse term and the rest beside a glossy
+lobe do) where it measures lower than ``"horizon"`` on seeded pairs with θo in
+:data:`VIEW_RANGE_DEG`. Oren–Nayar keeps ``"horizon"``: its retro-reflection does not
+vanish there.
 """
 
 from __future__ import annotations
@@ -60,6 +62,19 @@ def grazing_pairs(count: int = GRAZING_PAIRS, seed: int = GRAZING_SEED,
     return directions(), directions()
 
 
+def check_pairs(count: int = GRAZING_PAIRS, seed: int = GRAZING_SEED
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refine_theta`'s pairs: ``count`` with both θ in :data:`GRAZING_RANGE_DEG`,
+    then ``count`` with θo there and wi uniform on the hemisphere. The second half is where
+    the view grazes and the light does not: the radiance does not fall to 0 there, and a
+    coarse grid's error showed there alone (the MERL round trip at 32 θ cells: ΔE94 7.4 at
+    θi ≈ 20°, θo ≈ 89.2°, against 1.3 where both graze; issue 18)."""
+    both_wi, both_wo = grazing_pairs(count, seed)
+    view_wi = metrics.uniform_hemisphere(np.random.default_rng(seed + 2), count)
+    _, view_wo = grazing_pairs(count, seed + 3)
+    return np.concatenate([both_wi, view_wi]), np.concatenate([both_wo, view_wo])
+
+
 def theta_cells(parameterization: str, isotropic: bool | None,
                 resolution: tuple[int, ...] | None) -> int:
     """θ cells per 90° of ``resolution`` (the parameterisation's default grid if None), read
@@ -85,21 +100,28 @@ def refine_theta(brdf, models: list[FactoredBRDF], options,
                  ) -> tuple[list[FactoredBRDF], dict]:
     """``models``, or the series ``refit(finer options)`` returns where the grazing check
     asks for it and it measures lower (module doc). ``options`` are the series' own
-    (``FactorOptions``). Returns the series kept and what was measured."""
+    (``FactorOptions``). Returns the series kept and what was measured.
+
+    Each series is set to its own edge rule (:func:`choose_edge`) before it is measured:
+    the rule is part of what a grid reads at the view's horizon, and a finer grid judged
+    under the other rule lost to the coarse one there (the MERL round trip at 64 θ cells:
+    ΔE94 13.5 under ``"horizon"``, 3.2 under the ``"horizons"`` it then took)."""
     final = models[-1]
+    edge = choose_edge(brdf, models)
     finer = finer_resolution(final.parameterization, options.isotropic, final.resolution)
     if finer is None:
-        return models, {"grazing_refined": False}
+        return models, {"grazing_refined": False, **edge}
     start = time.perf_counter()
-    check = metrics.ProtocolError(brdf, pairs=grazing_pairs())
+    check = metrics.ProtocolError(brdf, pairs=check_pairs())
     coarse = float(check.stats(final)["max"])
     checking = time.perf_counter() - start
     figures = {"grazing_refined": False, "grazing_max_de94": coarse,
                "grazing_seconds": checking}
     if not REFINE_ABOVE < coarse < REFINE_BELOW:
-        return models, figures
+        return models, {**figures, **edge}
     candidates = refit(replace(options, parameterization=final.parameterization,
                                resolution=finer))
+    finer_edge = choose_edge(brdf, candidates)
     start = time.perf_counter()
     fine = float(check.stats(candidates[-1])["max"])
     checking += time.perf_counter() - start
@@ -110,7 +132,11 @@ def refine_theta(brdf, models: list[FactoredBRDF], options,
                    grazing_seconds=checking
                    + float(dropped.report.get("factor_seconds", 0.0))
                    + float(dropped.report.get("tabulate_seconds", 0.0)))
-    return (candidates if kept else models), figures
+    edge_figures = dict(finer_edge if kept else edge)
+    if edge_figures:
+        edge_figures["edge_seconds"] = (float(edge.get("edge_seconds", 0.0))
+                                        + float(finer_edge.get("edge_seconds", 0.0)))
+    return (candidates if kept else models), {**figures, **edge_figures}
 
 
 def view_horizon_pairs(count: int = GRAZING_PAIRS, seed: int = VIEW_SEED

@@ -127,12 +127,17 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
 
     def fit(with_lobe, low, high, chosen=None):
         chosen = chosen or (lobe_options if with_lobe is not None else plain_options)
-        return _distinct_counts(factor_brdf_series(
+        series = _distinct_counts(factor_brdf_series(
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
             parameterization=chosen.parameterization, isotropic=chosen.isotropic,
             resolution=chosen.resolution, spectral_basis=basis, lobe=with_lobe, cells=cells,
             callback=scaled(callback, low, high)))
+        # Every series is cut to the pack count it keeps before Automatic compares it
+        # with another (lobe or not, θ cells): what is compared is what would be stored.
+        if options.automatic and cells is not None and options.target_de94 is None:
+            series = _best_packs_in_cells(brdf, series)
+        return series
 
     undecided = lobe is not None and options.lobe == "auto" \
         and lobe_report["lobe_fit_gain"] < LOBE_SURE_GAIN
@@ -144,8 +149,6 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
     if options.automatic and options.horizon_choices:
         models, lobe_report = _automatic_horizon(brdf, models, lobe_report, fit,
                                                  lobe_options, plain_options, callback)
-    if options.automatic and cells is not None and options.target_de94 is None:
-        models, lobe_report = _best_packs_in_cells(brdf, models, lobe_report)
     report(callback, 0.95, "measuring ΔE94")
     series = _measured_series(models, error, lobe_report)
     final = models[-1]
@@ -172,13 +175,14 @@ def _automatic_horizon(brdf, models: list[FactoredBRDF],
                        figures: dict, fit, lobe_options: FactorOptions,
                        plain_options: FactorOptions, callback) -> tuple[list, dict]:
     """Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ cells where
-    the packs' error there is the cells', then the edge rule at the view's horizon."""
+    the packs' error there is the cells', each grid under its own edge rule at the view's
+    horizon."""
     report(callback, 0.9, "checking the horizon")
     kept_lobe = models[-1].lobe
     chosen = lobe_options if kept_lobe is not None else plain_options
     models, refined = grazing.refine_theta(
         brdf, models, chosen, lambda finer: fit(kept_lobe, 0.9, 0.95, finer))
-    return models, {**figures, **refined, **grazing.choose_edge(brdf, models)}
+    return models, {**figures, **refined}
 
 
 def _distinct_counts(models: list[FactoredBRDF]) -> list[FactoredBRDF]:
@@ -195,9 +199,9 @@ def _distinct_counts(models: list[FactoredBRDF]) -> list[FactoredBRDF]:
     return kept
 
 
-def _best_packs_in_cells(brdf, models: list[FactoredBRDF], figures: dict
-                         ) -> tuple[list[FactoredBRDF], dict]:
-    """Automatic in cells keeps the pack count that measures best at the check pairs.
+def _best_packs_in_cells(brdf, models: list[FactoredBRDF]) -> list[FactoredBRDF]:
+    """Automatic in cells keeps the pack count that measures best at the check pairs; the
+    measured means go in the report of the model kept (``cells_check_de94``).
 
     The packs are fitted to the table's steps at their own grid's points and read at the
     cells' centres, which lie elsewhere: past the first packs, more of them follow the
@@ -206,8 +210,8 @@ def _best_packs_in_cells(brdf, models: list[FactoredBRDF], figures: dict
     check = metrics.ProtocolError(brdf, count=LOBE_CHECK_PAIRS, seed=LOBE_CHECK_SEED)
     means = [check.stats(model)["mean"] for model in models]
     best = int(np.argmin(means))
-    return models[: best + 1], {**figures, "cells_check_de94": means,
-                                "cells_packs_kept": models[best].packs}
+    models[best].report.update(cells_check_de94=means, cells_packs_kept=models[best].packs)
+    return models[: best + 1]
 
 
 def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,

@@ -80,11 +80,15 @@ GAIN_FLOOR = 1e-3
 #: Where the lobe leaves less than this fraction of the BRDF (the norm over wavelengths of
 #: ``f − lobe`` against that of ``f``), the rest that the packs factor is taken as 0
 #: (``LobeResidual(invisible=...)``). There the rest is the lobe's own few-per-mille misfit
-#: along the mirror direction, invisible beside the lobe, but a ridge: the low-rank packs
-#: cannot follow it and spread it onto the dark flanks beside the mirror, where it showed
-#: (issue 18: Ashikhmin–Shirley 32, view 89.5–89.9°, ΔE94 up to 5.3 under FL11; 0.86 with
-#: it).
-INVISIBLE_REST = 0.003
+#: along the mirror direction (and, in a measured table's cells, the table's binning and
+#: uplift beside it), invisible beside the lobe, but a ridge: the low-rank packs cannot
+#: follow it and spread it onto the dark flanks beside the mirror, where it showed (issue
+#: 18: Ashikhmin–Shirley 32, view 89.5–89.9°, ΔE94 up to 5.3 under FL11; the MERL round
+#: trip, view 89–89.5°, 6.9). Measured on those flanks, the rule works from 0.25 % for
+#: the analytic lobe and from 0.5 % for the MERL round trip (0.3 % left it 6.4), and
+#: still at 1 %, where the analytic materials' largest errors begin to grow
+#: (docs/bench_colour_targets.md).
+INVISIBLE_REST = 0.005
 FIT_PAIRS = 8000
 FIT_SEED = 20181  # not the protocol's seed: the fit never sees the pairs it is measured at
 

@@ -44,6 +44,21 @@ def test_grazing_pairs_are_seeded_unit_and_in_range():
         assert theta.min() >= 80.0 and theta.max() < 89.5
 
 
+def test_check_pairs_add_the_view_grazing_alone():
+    """Half the check's pairs graze both ways; the other half graze the view alone, with
+    the light anywhere on the hemisphere (where a coarse grid's error showed, issue 18)."""
+    wi, wo = grazing.check_pairs(500, 3)
+    np.testing.assert_array_equal(wi, grazing.check_pairs(500, 3)[0])
+    assert wi.shape == wo.shape == (1000, 3)
+    theta_i = np.degrees(np.arccos(wi[:, 2]))
+    theta_o = np.degrees(np.arccos(wo[:, 2]))
+    assert theta_o.min() >= 80.0 and theta_o.max() < 89.5
+    assert theta_i[:500].min() >= 80.0 and theta_i[:500].max() < 89.5
+    # The light alone: uniform in solid angle, so half of it within 60° of the normal.
+    assert theta_i[500:].min() < 20.0 and 0.4 < np.mean(theta_i[500:] < 60.0) < 0.6
+    np.testing.assert_allclose(np.linalg.norm(wi, axis=1), 1.0, atol=1e-12)
+
+
 @pytest.mark.parametrize("name, iso, resolution, finer", [
     ("io_iso", True, (32, 64, 32), (64, 128, 64)),
     ("io", False, (32, 64, 32, 64), (64, 128, 64, 128)),

@@ -54,8 +54,7 @@ def _flank_max(monkeypatch, invisible: float, brdf, basis, wi, wo, reference) ->
 
 def test_the_flanks_of_a_grazing_mirror_stay_dark(monkeypatch):
     """Keeping every rest, the packs' share of the mirror's misfit takes the flank past
-    issue 18's bound of 5 (measured 14.8); with the invisible rest at 0 it is within 1
-    (measured 0.56)."""
+    issue 18's bound of 5; with the invisible rest at 0 it is within 1."""
     brdf = _orange_gloss()
     basis = build_basis(brdf, WL, True, 8)
     wi, wo = _mirror_flank_pairs()
