@@ -119,11 +119,11 @@ def theta_section(result: dict) -> list[str]:
         "and θo in [80°, 89.5°) and 2,000 with θo there and θi anywhere (not the "
         "protocol's); where their largest ΔE94 lies between 2 and 20 the material is fitted "
         "again with twice the θ cells (at most 64), and that fit is kept where it measures "
-        "lower there. Each grid is measured at the pack count it would keep and under its "
-        "own edge rule at the view's horizon: *horizons* (the table falls to 0 as θo "
-        "reaches 90°, as θi's does) where it measures a lower mean at 2,000 seeded pairs "
-        "with θo in [85°, 90°) than *horizon* (core/brdf/grazing.py). The columns below are "
-        "the grid kept.", "",
+        "lower there. Each grid is measured as it would be stored: in cells at the pack "
+        "count it keeps, and under its own edge rule at the view's horizon, *horizons* (the "
+        "table falls to 0 as θo reaches 90°, as θi's does) where it measures a lower mean "
+        "at 2,000 seeded pairs with θo in [85°, 90°) than *horizon* (core/brdf/grazing.py). "
+        "The columns below are the grid kept.", "",
         "| case | settings | θ cells asked | grazing max, asked | grazing max, twice the "
         "cells | kept | grid | view-horizon mean, horizon / horizons | edge rule |",
         "|---|---|---|---|---|---|---|---|---|"]

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ...core.brdf import factor, models
+from ...core.brdf.job import AUTOMATIC_RULES
 from ...core.brdf.lobe import INVISIBLE_REST, LOBE_FAMILIES
 from ...core.brdf.params import get_parameterization
 from ...core.colour import spectra
@@ -114,6 +115,8 @@ class MaterialInputs:
             # Beside a lobe the packs factor the rest that shows (lobe.INVISIBLE_REST):
             # a material factored before that rule is factored again.
             **({"invisible_rest": INVISIBLE_REST} if self.lobe != "off" else {}),
+            # What Automatic chooses changed: a material it chose for is factored again.
+            **({"automatic_rules": AUTOMATIC_RULES} if self.automatic else {}),
             # Only where it can change the result (a file looked up in cells), so that other
             # materials keep their hash.
             **({"cells": self.cells} if self.source == "file"

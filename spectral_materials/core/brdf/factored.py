@@ -398,3 +398,11 @@ def json_default(value):
     if isinstance(value, np.ndarray):
         return value.tolist()
     raise TypeError(f"not JSON-serialisable: {type(value).__name__}")
+
+
+def fit_seconds(model: FactoredBRDF) -> float:
+    """Seconds the series ending at ``model`` cost: its tabulation, its factoring up to
+    ``model``'s pack count, and what Automatic spent settling it (``settle_seconds``: its
+    edge rule, and in cells the check and the pack counts fitted past the one kept)."""
+    return sum(float(model.report.get(key, 0.0))
+               for key in ("tabulate_seconds", "factor_seconds", "settle_seconds"))

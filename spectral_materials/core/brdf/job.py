@@ -19,7 +19,7 @@ from ..progress import ProgressCallback, report, scaled
 from ..raster_plots import plot_error_against_packs
 from . import grazing, metrics
 from .factor import factor_brdf_series
-from .factored import FactoredBRDF
+from .factored import FactoredBRDF, fit_seconds
 from .lobe import LOBE_FAMILIES, SpecularLobe, fit_lobe, residual_anisotropy
 from .params import get_parameterization
 
@@ -43,6 +43,12 @@ LOBE_CHECK_SEED = 424242
 #: the same θ cells) when the rest turns about the normal by at most this
 #: (``lobe.residual_anisotropy``; Ashikhmin–Shirley with its own lobe: 0.002–0.003).
 ISOTROPIC_RESIDUAL = 0.01
+#: The version of what Automatic chooses (its checks, their pairs, the order of its
+#: choices), named in the input hash of a material under Automatic
+#: (blender/brdf/sources.py): a change to it marks the materials it chose for before out of
+#: date. 2: the θ-cell check's pairs where the view alone grazes, and each series settled
+#: (edge rule, pack count in cells) before it is compared (issue 18).
+AUTOMATIC_RULES = 2
 
 
 @dataclass
@@ -127,17 +133,12 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
 
     def fit(with_lobe, low, high, chosen=None):
         chosen = chosen or (lobe_options if with_lobe is not None else plain_options)
-        series = _distinct_counts(factor_brdf_series(
+        return _settle(brdf, _distinct_counts(factor_brdf_series(
             brdf, pack_counts=counts, packs=options.packs, target_de94=options.target_de94,
             pack_size=options.pack_size, smoothing=options.smoothing, seed=options.seed,
             parameterization=chosen.parameterization, isotropic=chosen.isotropic,
             resolution=chosen.resolution, spectral_basis=basis, lobe=with_lobe, cells=cells,
-            callback=scaled(callback, low, high)))
-        # Every series is cut to the pack count it keeps before Automatic compares it
-        # with another (lobe or not, θ cells): what is compared is what would be stored.
-        if options.automatic and cells is not None and options.target_de94 is None:
-            series = _best_packs_in_cells(brdf, series)
-        return series
+            callback=scaled(callback, low, high))), options, cells is not None)
 
     undecided = lobe is not None and options.lobe == "auto" \
         and lobe_report["lobe_fit_gain"] < LOBE_SURE_GAIN
@@ -174,9 +175,8 @@ def factor_material(brdf, basis: LinearModelBasis | None, options: FactorOptions
 def _automatic_horizon(brdf, models: list[FactoredBRDF],
                        figures: dict, fit, lobe_options: FactorOptions,
                        plain_options: FactorOptions, callback) -> tuple[list, dict]:
-    """Automatic's choices at the horizon (core/brdf/grazing.py): twice the θ cells where
-    the packs' error there is the cells', each grid under its own edge rule at the view's
-    horizon."""
+    """Automatic's choice at the horizon (core/brdf/grazing.py): twice the θ cells where
+    the packs' error there is the cells' (each grid settled, with its own edge rule)."""
     report(callback, 0.9, "checking the horizon")
     kept_lobe = models[-1].lobe
     chosen = lobe_options if kept_lobe is not None else plain_options
@@ -199,9 +199,32 @@ def _distinct_counts(models: list[FactoredBRDF]) -> list[FactoredBRDF]:
     return kept
 
 
-def _best_packs_in_cells(brdf, models: list[FactoredBRDF]) -> list[FactoredBRDF]:
-    """Automatic in cells keeps the pack count that measures best at the check pairs; the
-    measured means go in the report of the model kept (``cells_check_de94``).
+def _settle(brdf, series: list[FactoredBRDF], options: FactorOptions, in_cells: bool
+            ) -> list[FactoredBRDF]:
+    """What Automatic would store of a fitted series, settled before it is compared with
+    another (lobe or not, θ cells), so that what is compared is what would be stored: its
+    edge rule at the view's horizon (``grazing.choose_edge``), then, in cells, the pack
+    count that measures best under that rule. The figures, and the seconds spent on them
+    and on the pack counts fitted past the one kept (``settle_seconds``), go in the report
+    of the model kept last."""
+    if not options.automatic:
+        return series
+    start = time.perf_counter()
+    fitted = series[-1]
+    figures = grazing.choose_edge(brdf, series) if options.horizon_choices else {}
+    if in_cells and options.target_de94 is None:
+        series, means = _best_packs_in_cells(brdf, series)
+        figures.update(cells_check_de94=means, cells_packs_kept=series[-1].packs)
+    past = (float(fitted.report.get("factor_seconds", 0.0))
+            - float(series[-1].report.get("factor_seconds", 0.0)))
+    series[-1].report.update(figures, settle_seconds=time.perf_counter() - start + past)
+    return series
+
+
+def _best_packs_in_cells(brdf, models: list[FactoredBRDF]
+                         ) -> tuple[list[FactoredBRDF], list[float]]:
+    """Automatic in cells keeps the pack count that measures best at the check pairs:
+    the series up to it, and the mean ΔE94 of every count.
 
     The packs are fitted to the table's steps at their own grid's points and read at the
     cells' centres, which lie elsewhere: past the first packs, more of them follow the
@@ -209,9 +232,7 @@ def _best_packs_in_cells(brdf, models: list[FactoredBRDF]) -> list[FactoredBRDF]
     MERL round trip: docs/bench_colour_targets.md, "Error against time")."""
     check = metrics.ProtocolError(brdf, count=LOBE_CHECK_PAIRS, seed=LOBE_CHECK_SEED)
     means = [check.stats(model)["mean"] for model in models]
-    best = int(np.argmin(means))
-    models[best].report.update(cells_check_de94=means, cells_packs_kept=models[best].packs)
-    return models[: best + 1]
+    return models[: int(np.argmin(means)) + 1], means
 
 
 def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,
@@ -221,10 +242,8 @@ def _measured_series(models: list[FactoredBRDF], error: metrics.ProtocolError,
     series = []
     for model in models:
         model.report.update(figures)
-        spent = sum(float(source.get(key, 0.0)) for source, key in (
-            (model.report, "factor_seconds"), (model.report, "tabulate_seconds"),
-            (figures, "lobe_fit_seconds"), (figures, "lobe_choice_seconds"),
-            (figures, "grazing_seconds"), (figures, "edge_seconds")))
+        spent = fit_seconds(model) + sum(float(figures.get(key, 0.0)) for key in (
+            "lobe_fit_seconds", "lobe_choice_seconds", "grazing_seconds"))
         series.append({"packs": model.packs, "de94": error.stats(model), "seconds": spent})
     return series
 
@@ -278,10 +297,8 @@ def _keep_the_better(brdf, with_lobe: list[FactoredBRDF], without: list[Factored
     means = [check.stats(series[-1])["mean"] for series in (with_lobe, without)]
     kept = means[0] < means[1]
     other = (without if kept else with_lobe)[-1]
-    seconds = (float(other.report.get("factor_seconds", 0.0))
-               + float(other.report.get("tabulate_seconds", 0.0)))
     figures = {**figures, "lobe_kept": kept, "lobe_check_de94": means[0],
-               "no_lobe_check_de94": means[1], "lobe_choice_seconds": seconds}
+               "no_lobe_check_de94": means[1], "lobe_choice_seconds": fit_seconds(other)}
     return (with_lobe if kept else without), figures
 
 

@@ -1,6 +1,6 @@
 """What a material's input hash names (blender/brdf/sources.py): a change in how the
-add-on factors a material with a lobe marks such materials out of date, and leaves the
-others' hashes as they were."""
+add-on factors a material with a lobe, or in what Automatic chooses, marks such materials
+out of date, and leaves the others' hashes as they were."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ pytest.importorskip("bpy")
 pytestmark = pytest.mark.bpy
 
 from spectral_materials.blender.brdf import sources  # noqa: E402
-from spectral_materials.core.brdf import lobe  # noqa: E402
+from spectral_materials.core.brdf import job, lobe  # noqa: E402
 
 
 def _glossy(lobe_setting: str) -> sources.MaterialInputs:
@@ -34,3 +34,14 @@ def test_a_material_without_a_lobe_keeps_its_hash(monkeypatch):
     monkeypatch.setattr(sources, "INVISIBLE_REST", lobe.INVISIBLE_REST * 2)
     assert sources.input_hash(inputs, None) == before
     assert sources.input_hash(replace(inputs, packs=5), None) != before
+
+
+def test_automatics_rules_are_in_an_automatic_materials_hash(monkeypatch):
+    """A change to what Automatic chooses marks the materials under it out of date, and
+    leaves a material with a parameterisation set by hand as it was."""
+    automatic = replace(_glossy("off"), automatic=True)
+    by_hand = _glossy("off")
+    before = [sources.input_hash(m, None) for m in (automatic, by_hand)]
+    monkeypatch.setattr(sources, "AUTOMATIC_RULES", job.AUTOMATIC_RULES + 1)
+    assert sources.input_hash(automatic, None) != before[0]
+    assert sources.input_hash(by_hand, None) == before[1]
