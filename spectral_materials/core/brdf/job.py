@@ -204,9 +204,9 @@ def _settle(brdf, series: list[FactoredBRDF], options: FactorOptions, in_cells: 
     """What Automatic would store of a fitted series, settled before it is compared with
     another (lobe or not, θ cells), so that what is compared is what would be stored: its
     edge rule at the view's horizon (``grazing.choose_edge``), then, in cells, the pack
-    count that measures best under that rule. The figures, and the seconds spent on them
-    and on the pack counts fitted past the one kept (``settle_seconds``), go in the report
-    of the model kept last."""
+    count that measures best under that rule, and the rule chosen again for that count.
+    The figures, and the seconds spent on them and on the pack counts fitted past the one
+    kept (``settle_seconds``), go in the report of the model kept last."""
     if not options.automatic:
         return series
     start = time.perf_counter()
@@ -215,6 +215,10 @@ def _settle(brdf, series: list[FactoredBRDF], options: FactorOptions, in_cells: 
     if in_cells and options.target_de94 is None:
         series, means = _best_packs_in_cells(brdf, series)
         figures.update(cells_check_de94=means, cells_packs_kept=series[-1].packs)
+        if "edge_choice" in figures and series[-1] is not fitted:
+            for model in series:
+                model.edge = "horizon"
+            figures.update(grazing.choose_edge(brdf, series))
     past = (float(fitted.report.get("factor_seconds", 0.0))
             - float(series[-1].report.get("factor_seconds", 0.0)))
     series[-1].report.update(figures, settle_seconds=time.perf_counter() - start + past)
@@ -293,12 +297,15 @@ def _keep_the_better(brdf, with_lobe: list[FactoredBRDF], without: list[Factored
     A lobe of the wrong shape can cost more than it saves (an Ashikhmin–Shirley lobe on
     GGX: docs/bench_colour_targets.md), so "auto" measures both rather than assume.
     """
+    start = time.perf_counter()
     check = metrics.ProtocolError(brdf, count=LOBE_CHECK_PAIRS, seed=LOBE_CHECK_SEED)
     means = [check.stats(series[-1])["mean"] for series in (with_lobe, without)]
     kept = means[0] < means[1]
     other = (without if kept else with_lobe)[-1]
+    # The check's own time and the series not kept.
+    seconds = time.perf_counter() - start + fit_seconds(other)
     figures = {**figures, "lobe_kept": kept, "lobe_check_de94": means[0],
-               "no_lobe_check_de94": means[1], "lobe_choice_seconds": fit_seconds(other)}
+               "no_lobe_check_de94": means[1], "lobe_choice_seconds": seconds}
     return (with_lobe if kept else without), figures
 
 
