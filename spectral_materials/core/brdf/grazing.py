@@ -12,7 +12,7 @@ with both directions in :data:`GRAZING_RANGE_DEG`, and as many with only the vie
 that is at most :data:`MAX_THETA_CELLS`) and keeps
 that fit where it measures lower there. Above :data:`REFINE_BELOW` no refit is spent:
 an error that large is not the cells' (the MERL round trip drawn smooth, not in its
-table's cells, measures 37 there: docs/bench_colour_targets.md).
+table's cells, measures 37 there: docs/bench_colour_targets.json).
 
 Each grid is measured under the lookup's edge rule at the view's horizon that
 :func:`choose_edge` picks for it (``job._settle``), which costs no fit: ``"horizons"``
