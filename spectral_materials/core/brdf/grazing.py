@@ -47,6 +47,8 @@ MAX_THETA_CELLS = 64
 #: :func:`choose_edge`'s pairs: θo uniform in this range, θi uniform on the hemisphere.
 VIEW_RANGE_DEG = (85.0, 90.0)
 VIEW_SEED = 8951
+#: The edge rules :func:`choose_edge` chooses between.
+EDGE_CHOICES = ("horizon", "horizons")
 #: :func:`check_pairs`'s second half (the light anywhere, the view grazing): its own seeds,
 #: so that its pairs share no draws with :func:`view_horizon_pairs`'s.
 VIEW_CHECK_SEED = 8960
@@ -145,17 +147,19 @@ def view_horizon_pairs(count: int = GRAZING_PAIRS, seed: int = VIEW_SEED
 
 
 def choose_edge(brdf, models: list[FactoredBRDF]) -> dict:
-    """Set every model of the series to ``"horizons"`` where that edge rule measures a
-    lower mean ΔE94 (D65) than ``"horizon"`` at :func:`view_horizon_pairs`; returns what
-    was measured. Models under another rule, or without a θo axis, are left alone."""
+    """Set every model of the series to whichever of :data:`EDGE_CHOICES` measures the
+    lower mean ΔE94 (D65) at :func:`view_horizon_pairs` on its last model; returns what was
+    measured. A series already chosen for may be chosen for again (``job._settle``, after
+    it keeps fewer packs). Models under another rule, or without a θo axis, are left
+    alone."""
     final = models[-1]
     axes = final.grid.parameterization.axes
-    if final.edge != "horizon" or not any(a.view_horizon for a in axes):
+    if final.edge not in EDGE_CHOICES or not any(a.view_horizon for a in axes):
         return {}
     start = time.perf_counter()
     check = metrics.ProtocolError(brdf, pairs=view_horizon_pairs())
     means = {edge: float(check.stats(replace(final, edge=edge))["mean"])
-             for edge in ("horizon", "horizons")}
+             for edge in EDGE_CHOICES}
     chosen = min(means, key=means.get)
     for model in models:
         model.edge = chosen

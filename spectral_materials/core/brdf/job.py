@@ -216,8 +216,6 @@ def _settle(brdf, series: list[FactoredBRDF], options: FactorOptions, in_cells: 
         series, means = _best_packs_in_cells(brdf, series)
         figures.update(cells_check_de94=means, cells_packs_kept=series[-1].packs)
         if "edge_choice" in figures and series[-1] is not fitted:
-            for model in series:
-                model.edge = "horizon"
             figures.update(grazing.choose_edge(brdf, series))
     past = (float(fitted.report.get("factor_seconds", 0.0))
             - float(series[-1].report.get("factor_seconds", 0.0)))
